@@ -1,0 +1,1 @@
+//! Host-in-the-loop tests live in tests/tests/.
