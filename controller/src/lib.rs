@@ -1,4 +1,41 @@
-//! Placeholder; filled in by its issue.
+//! A topology representing network (TRN) controller for a hysteretic soft robot arm,
+//! after K. Sarkar and K. Schulten, "Topology Representing Network in Robotics".
+//!
+//! `no_std`, no allocation, f32 arithmetic. Two statically sized networks:
+//! stage 1 ([`Stage1Net`]: 1000 neurons, 8-D camera weights, 5 pressures, 5x8 Jacobians)
+//! places and orients the gripper in front of a cylinder; stage 2 ([`Stage2Net`]: 200
+//! neurons, 4-D, 3 pressures, 3x4 Jacobians) moves it onto the cylinder centre.
+//!
+//! The controller never blocks, never reads a clock and does no I/O: a [`Task`] goes in,
+//! [`Command`]s come out, and each camera [`Observation`] is passed back in
+//! ([`Controller::begin`], [`Controller::observe`]). The same code serves supervised
+//! priming, unsupervised training, mature operation and the two-stage grasp.
+//!
+//! - [`rank`]: closeness ranking (8.2-8.4), full sort or partial selection.
+//! - [`rules`]: the averaged output and every update (8.5-8.30), with the deviations named.
+//! - [`stage`]: one network's learning step as a state machine (coarse move, fine moves
+//!   until the tolerance (8.7) or a cap, updates).
+//! - [`config`]: every constant; [`Config::paper`] beside [`Config::project_default`].
+//! - [`checkpoint`]: postcard checkpoints with a version and a CRC.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
+// Index loops over the fixed small dimensions (D, M) read like the equations they implement.
+#![allow(clippy::needless_range_loop)]
+
+pub mod checkpoint;
+pub mod config;
+mod controller;
+mod error;
+pub mod net;
+pub mod rank;
+pub mod rules;
+pub mod stage;
+
+pub use config::{Config, StageConfig};
+pub use controller::{
+    Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, JOINTS, RANKS,
+};
+pub use error::{Error, Result};
+pub use net::{Stage1Net, Stage2Net, Trn};
+pub use stage::{StageOutcome, StageStep};

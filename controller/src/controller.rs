@@ -1,0 +1,312 @@
+//! Both networks and the two-stage grasp, behind one state machine.
+
+use crate::config::Config;
+use crate::error::{Error, Result};
+use crate::stage::{Stage, StageOutcome, StageStep};
+
+/// Ranks that carry weight in the averages and updates (see [`crate::rules`]).
+pub const RANKS: usize = 128;
+
+/// The stage-1 learner: 1000 neurons, 8-D lights, 5 pressures.
+pub type Stage1 = Stage<1000, 8, 5, RANKS>;
+/// The stage-2 learner: 200 neurons, 4-D gripper centre, 3 pressures (joints 0..3).
+pub type Stage2 = Stage<200, 4, 3, RANKS>;
+
+/// Number of joints of the arm.
+pub const JOINTS: usize = 5;
+
+/// What the controller is asked to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Task {
+    /// One stage-1 trial towards the lights `v` (8-D). With `supervised = Some(P_target)`
+    /// it is a supervised priming step (8.17-8.21); otherwise it learns when `learn`.
+    Stage1 {
+        /// Target lights p and q in both cameras.
+        v: [f32; 8],
+        /// The pressure that produced `v`, when known (priming).
+        supervised: Option<[f32; 5]>,
+        /// Update the tables.
+        learn: bool,
+    },
+    /// One stage-2 trial towards the gripper-centre image `c` (4-D), moving joints 0..3.
+    Stage2 {
+        /// Target gripper centre in both cameras.
+        c: [f32; 4],
+        /// Update the tables.
+        learn: bool,
+    },
+    /// A full grasp: stage 1 to the pre-grasp pose given lights p and q, stage 2 onto the
+    /// cylinder centre, then close the gripper (Sec. 8.4.2).
+    Grasp {
+        /// Lights p and q in front of the cylinder.
+        v: [f32; 8],
+        /// Cylinder centre in both cameras.
+        c: [f32; 4],
+        /// Update the tables on the way (life-long learning).
+        learn: bool,
+    },
+}
+
+/// Which camera reading a move asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObserveKind {
+    /// The two gripper lights in both cameras (8-D).
+    Lights,
+    /// The gripper-centre light in both cameras (4-D).
+    Centre,
+}
+
+/// A camera reading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Observation {
+    /// The two gripper lights in both cameras (8-D).
+    Lights([f32; 8]),
+    /// The gripper-centre light in both cameras (4-D).
+    Centre([f32; 4]),
+}
+
+/// The outcome of a task.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outcome {
+    /// Stage-1 result, if stage 1 ran.
+    pub stage1: Option<StageOutcome>,
+    /// Stage-2 result, if stage 2 ran.
+    pub stage2: Option<StageOutcome>,
+    /// True at the end of a grasp: close the gripper.
+    pub close_gripper: bool,
+}
+
+/// What the caller must do next.
+// `Done` carries the outcome by value: there is no heap to box it on.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Apply `pressures[..joints]` (the others hold), let the arm settle, then pass the
+    /// observation of kind `observe` to [`Controller::observe`].
+    Move {
+        /// Pressure differences, normalised to [-1, 1].
+        pressures: [f32; JOINTS],
+        /// Joints commanded: 5 in stage 1, 3 in stage 2.
+        joints: u8,
+        /// The reading to take after the move.
+        observe: ObserveKind,
+    },
+    /// The task is over.
+    Done(Outcome),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Running {
+    Idle,
+    Stage1 { then_c: Option<[f32; 4]> },
+    Stage2,
+}
+
+/// Both networks, the configuration and the task in progress.
+///
+/// ```
+/// use trn_controller::{Command, Config, Controller, Observation, Task};
+/// let mut ctrl = Box::new(Controller::new(Config::project_default()));
+/// ctrl.init_random(42);
+/// let v = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+/// let mut cmd = ctrl.begin(Task::Stage1 { v, supervised: None, learn: true }).unwrap();
+/// // a plant that always lands 3 px to the right of the target
+/// let outcome = loop {
+///     match cmd {
+///         Command::Move { .. } => {
+///             let mut seen = v;
+///             seen[0] += 3.0;
+///             cmd = ctrl.observe(Observation::Lights(seen)).unwrap();
+///         }
+///         Command::Done(outcome) => break outcome,
+///     }
+/// };
+/// assert_eq!(outcome.stage1.unwrap().final_error, 3.0);
+/// ```
+#[derive(Clone)]
+pub struct Controller {
+    cfg: Config,
+    stage1: Stage1,
+    stage2: Stage2,
+    running: Running,
+    outcome: Outcome,
+    /// Last pressures commanded to each joint.
+    held: [f32; JOINTS],
+}
+
+impl Controller {
+    /// A controller with zero tables (a `const fn`: firmware can put it in a `static`).
+    /// Call [`Controller::init_random`] or restore a checkpoint before use.
+    pub const fn new(cfg: Config) -> Self {
+        Controller {
+            cfg,
+            stage1: Stage::new(cfg.stage1),
+            stage2: Stage::new(cfg.stage2),
+            running: Running::Idle,
+            outcome: Outcome {
+                stage1: None,
+                stage2: None,
+                close_gripper: false,
+            },
+            held: [0.0; JOINTS],
+        }
+    }
+
+    /// Random initial tables for both networks from `seed`.
+    pub fn init_random(&mut self, seed: u64) {
+        use rand_core::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        self.stage1.init_random(&mut rng);
+        self.stage2.init_random(&mut rng);
+        self.running = Running::Idle;
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config {
+        &self.cfg
+    }
+
+    /// Replaces the configuration between tasks (the tables stay).
+    pub fn set_config(&mut self, cfg: Config) -> Result<()> {
+        if self.busy() {
+            return Err(Error::Busy);
+        }
+        self.stage1.set_config(cfg.stage1)?;
+        self.stage2.set_config(cfg.stage2)?;
+        self.cfg = cfg;
+        Ok(())
+    }
+
+    /// The stage-1 learner.
+    pub fn stage1(&self) -> &Stage1 {
+        &self.stage1
+    }
+
+    /// The stage-2 learner.
+    pub fn stage2(&self) -> &Stage2 {
+        &self.stage2
+    }
+
+    /// Mutable access to the stage-1 learner (rank mode, config).
+    pub fn stage1_mut(&mut self) -> &mut Stage1 {
+        &mut self.stage1
+    }
+
+    /// Mutable access to the stage-2 learner.
+    pub fn stage2_mut(&mut self) -> &mut Stage2 {
+        &mut self.stage2
+    }
+
+    /// True while a task is running.
+    pub fn busy(&self) -> bool {
+        self.running != Running::Idle
+    }
+
+    /// Abandons the running task.
+    pub fn abort(&mut self) {
+        self.stage1.abort();
+        self.stage2.abort();
+        self.running = Running::Idle;
+    }
+
+    /// Starts a task and returns its first command.
+    pub fn begin(&mut self, task: Task) -> Result<Command> {
+        if self.busy() {
+            return Err(Error::Busy);
+        }
+        self.outcome = Outcome {
+            stage1: None,
+            stage2: None,
+            close_gripper: false,
+        };
+        match task {
+            Task::Stage1 {
+                v,
+                supervised,
+                learn,
+            } => {
+                let p = self.stage1.begin(&v, supervised.as_ref(), learn)?;
+                self.running = Running::Stage1 { then_c: None };
+                Ok(self.move1(p))
+            }
+            Task::Stage2 { c, learn } => self.begin2(&c, learn),
+            Task::Grasp { v, c, learn } => {
+                // validate the stage-2 target now, so a bad one fails before the arm moves
+                self.stage2.check_input(&c)?;
+                let p = self.stage1.begin(&v, None, learn)?;
+                self.running = Running::Stage1 { then_c: Some(c) };
+                Ok(self.move1(p))
+            }
+        }
+    }
+
+    fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
+        let p = self.stage2.begin(c, None, learn)?;
+        self.running = Running::Stage2;
+        Ok(self.move2(p))
+    }
+
+    fn move1(&mut self, p: [f32; 5]) -> Command {
+        self.held = p;
+        Command::Move {
+            pressures: p,
+            joints: 5,
+            observe: ObserveKind::Lights,
+        }
+    }
+
+    fn move2(&mut self, p: [f32; 3]) -> Command {
+        self.held[..3].copy_from_slice(&p);
+        Command::Move {
+            pressures: self.held,
+            joints: 3,
+            observe: ObserveKind::Centre,
+        }
+    }
+
+    /// Consumes the observation that followed the last [`Command::Move`].
+    pub fn observe(&mut self, obs: Observation) -> Result<Command> {
+        match (self.running, obs) {
+            (Running::Idle, _) => Err(Error::UnexpectedObservation),
+            (Running::Stage1 { then_c }, Observation::Lights(v)) => {
+                match self.stage1.observe(&v)? {
+                    StageStep::Move(p) => Ok(self.move1(p)),
+                    StageStep::Done(o) => {
+                        self.outcome.stage1 = Some(o);
+                        match then_c {
+                            None => Ok(self.done()),
+                            Some(c) => {
+                                let learn = o.learned;
+                                match self.begin2(&c, learn) {
+                                    Ok(cmd) => Ok(cmd),
+                                    Err(e) => {
+                                        self.running = Running::Idle;
+                                        Err(e)
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            (Running::Stage2, Observation::Centre(c)) => match self.stage2.observe(&c)? {
+                StageStep::Move(p) => Ok(self.move2(p)),
+                StageStep::Done(o) => {
+                    self.outcome.stage2 = Some(o);
+                    self.outcome.close_gripper = self.outcome.stage1.is_some();
+                    Ok(self.done())
+                }
+            },
+            _ => Err(Error::WrongObservationKind),
+        }
+    }
+
+    fn done(&mut self) -> Command {
+        self.running = Running::Idle;
+        Command::Done(self.outcome)
+    }
+
+    pub(crate) fn parts_mut(&mut self) -> (&mut Stage1, &mut Stage2) {
+        (&mut self.stage1, &mut self.stage2)
+    }
+}

@@ -1,0 +1,177 @@
+//! The neuron tables of a topology representing network.
+
+use crate::config::Init;
+use rand_core::RngCore;
+
+/// A topology representing network of `N` neurons mapping `D`-dimensional camera
+/// coordinates to `M` pressures. Each neuron `k` holds a weight `w_k` (a point of the
+/// input space), a pressure `P_k` and a Jacobian `A_k` (M x D) of the local affine map
+/// `P(u) = P_k + A_k (u - w_k)` (8.1, 8.23).
+///
+/// All tables are statically sized; [`Trn::new`] is a `const fn`, so firmware can place a
+/// network in a `static`.
+#[derive(Clone, PartialEq)]
+pub struct Trn<const N: usize, const D: usize, const M: usize> {
+    pub(crate) w: [[f32; D]; N],
+    pub(crate) p: [[f32; M]; N],
+    pub(crate) a: [[[f32; D]; M]; N],
+}
+
+/// The stage-1 network: 1000 neurons, 8-D lights, 5 pressures, 5x8 Jacobians (212,000 bytes).
+pub type Stage1Net = Trn<1000, 8, 5>;
+/// The stage-2 network: 200 neurons, 4-D gripper centre, 3 pressures, 3x4 Jacobians (15,200 bytes).
+pub type Stage2Net = Trn<200, 4, 3>;
+
+impl<const N: usize, const D: usize, const M: usize> Default for Trn<N, D, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize, const D: usize, const M: usize> core::fmt::Debug for Trn<N, D, M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "Trn<{N}, {D}, {M}>")
+    }
+}
+
+/// Uniform f32 in `[lo, hi)` from 24 random bits.
+pub(crate) fn uniform(rng: &mut impl RngCore, lo: f32, hi: f32) -> f32 {
+    let u = (rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
+    lo + (hi - lo) * u
+}
+
+impl<const N: usize, const D: usize, const M: usize> Trn<N, D, M> {
+    /// Number of neurons.
+    pub const NEURONS: usize = N;
+    /// Bytes of the three tables.
+    pub const TABLE_BYTES: usize = N * (D + M + M * D) * 4;
+
+    /// A network with all tables zero.
+    pub const fn new() -> Self {
+        Trn {
+            w: [[0.0; D]; N],
+            p: [[0.0; M]; N],
+            a: [[[0.0; D]; M]; N],
+        }
+    }
+
+    /// Assigns random initial values (Sec. 8.4.1: "all of the weights, pressures and
+    /// Jacobians initially were assigned randomly"). Even coordinates are x, odd ones y.
+    pub fn init_random(&mut self, rng: &mut impl RngCore, init: &Init) {
+        for k in 0..N {
+            for d in 0..D {
+                let (lo, hi) = if d % 2 == 0 { init.x } else { init.y };
+                self.w[k][d] = uniform(rng, lo, hi);
+            }
+            for m in 0..M {
+                self.p[k][m] = uniform(rng, -init.pressure, init.pressure);
+            }
+            for m in 0..M {
+                for d in 0..D {
+                    self.a[k][m][d] = uniform(rng, -init.jacobian, init.jacobian);
+                }
+            }
+        }
+    }
+
+    /// The weight `w_k`.
+    pub fn weight(&self, k: usize) -> &[f32; D] {
+        &self.w[k]
+    }
+
+    /// The pressure `P_k`.
+    pub fn pressure(&self, k: usize) -> &[f32; M] {
+        &self.p[k]
+    }
+
+    /// The Jacobian `A_k`, row-major (M rows of D).
+    pub fn jacobian(&self, k: usize) -> &[[f32; D]; M] {
+        &self.a[k]
+    }
+
+    /// Sets neuron `k`'s entries (tests, tools).
+    pub fn set_neuron(&mut self, k: usize, w: [f32; D], p: [f32; M], a: [[f32; D]; M]) {
+        self.w[k] = w;
+        self.p[k] = p;
+        self.a[k] = a;
+    }
+
+    /// The local affine map of neuron `k` at `u` (8.1): `P_k + A_k (u - w_k)`.
+    pub fn local_output(&self, k: usize, u: &[f32; D]) -> [f32; M] {
+        let mut out = self.p[k];
+        for (m, o) in out.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for d in 0..D {
+                acc += self.a[k][m][d] * (u[d] - self.w[k][d]);
+            }
+            *o += acc;
+        }
+        out
+    }
+
+    /// True when every table entry is finite.
+    pub fn is_finite(&self) -> bool {
+        self.w.iter().flatten().all(|x| x.is_finite())
+            && self.p.iter().flatten().all(|x| x.is_finite())
+            && self.a.iter().flatten().flatten().all(|x| x.is_finite())
+    }
+
+    /// Calls `f` on every table value in checkpoint order: all weights, all pressures,
+    /// all Jacobians, neuron by neuron.
+    pub(crate) fn for_each_value(&self, mut f: impl FnMut(f32)) {
+        self.w.iter().flatten().for_each(|&x| f(x));
+        self.p.iter().flatten().for_each(|&x| f(x));
+        self.a.iter().flatten().flatten().for_each(|&x| f(x));
+    }
+
+    /// Mutable counterpart of [`Trn::for_each_value`].
+    pub(crate) fn for_each_value_mut(&mut self, mut f: impl FnMut(&mut f32)) {
+        self.w.iter_mut().flatten().for_each(&mut f);
+        self.p.iter_mut().flatten().for_each(&mut f);
+        self.a.iter_mut().flatten().flatten().for_each(&mut f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::SeedableRng;
+
+    #[test]
+    fn table_sizes_match_the_reading_notes() {
+        assert_eq!(Stage1Net::TABLE_BYTES, 212_000);
+        assert_eq!(Stage2Net::TABLE_BYTES, 15_200);
+        assert_eq!(core::mem::size_of::<Stage1Net>(), 212_000);
+        assert_eq!(core::mem::size_of::<Stage2Net>(), 15_200);
+    }
+
+    #[test]
+    fn local_output_is_8_1() {
+        let mut net = Trn::<1, 2, 1>::new();
+        net.set_neuron(0, [1.0, 2.0], [0.5], [[0.1, -0.2]]);
+        let out = net.local_output(0, &[3.0, 1.0]);
+        // 0.5 + 0.1*2 + (-0.2)*(-1) = 0.9
+        assert!((out[0] - 0.9).abs() < 1e-6);
+    }
+
+    #[test]
+    fn random_init_is_seeded_and_in_range() {
+        let init = crate::Config::paper().stage1.init;
+        let mut a = Trn::<50, 4, 2>::new();
+        let mut b = Trn::<50, 4, 2>::new();
+        a.init_random(
+            &mut rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7),
+            &init,
+        );
+        b.init_random(
+            &mut rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7),
+            &init,
+        );
+        assert!(a == b);
+        assert!(a
+            .w
+            .iter()
+            .all(|w| (0.0..640.0).contains(&w[0]) && (0.0..480.0).contains(&w[1])));
+        assert!(a.p.iter().flatten().all(|p| p.abs() <= 1.0));
+    }
+}

@@ -1,0 +1,447 @@
+//! The learning and control rules of the chapter, as pure functions over a network and a
+//! ranking. The state machine in [`crate::stage`] calls them in the paper's order.
+//!
+//! Two deliberate deviations apply to every rule here, both named in READING-NOTES.md:
+//! - **Normalised averages** (8.5, 8.11, 8.14, 8.19, 8.20, 8.24, 8.29): as printed the sums
+//!   of `alpha(r) = exp(-r/10)` are not normalised (their total is about 10.5), which scales
+//!   every output about tenfold and makes the fine loop diverge. Here each average is divided
+//!   by the sum of the weights over the ranks summed.
+//! - **Truncation to the `K` closest ranks.** The paper sums and updates over all `N`
+//!   neurons. Only the ranks `r < K` are used here. The weights dropped are below
+//!   `exp(-K/10)` of the average (`K = 128`: 2.8e-6 relative) and the update rates below
+//!   `exp(-K/5)` (`K = 128`: 7.6e-12), under f32 resolution; `tests::truncation_*` bound the
+//!   difference against the full sums.
+
+use crate::error::{Error, Result};
+use crate::net::Trn;
+use crate::rank::Ranking;
+
+/// `exp(-r / range)` for `r < K`: the averaging weights `alpha(r)` (8.6, range 10) or the
+/// neighbourhood factor of the learning rates (8.10, range `sigma` = 5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Falloff<const K: usize> {
+    /// `exp(-r / range)` for each rank.
+    pub value: [f32; K],
+}
+
+impl<const K: usize> Falloff<K> {
+    /// All zero (before [`Falloff::compute`]).
+    pub const fn zero() -> Self {
+        Falloff { value: [0.0; K] }
+    }
+
+    /// `exp(-r / range)` for `r = 0..K`.
+    pub fn compute(range: f32) -> Self {
+        let mut value = [0.0; K];
+        for (r, v) in value.iter_mut().enumerate() {
+            *v = libm::expf(-(r as f32) / range);
+        }
+        Falloff { value }
+    }
+
+    /// Sum of the first `n` values (`n` is capped at `K`).
+    pub fn sum(&self, n: usize) -> f32 {
+        self.value[..n.min(K)].iter().sum()
+    }
+}
+
+/// (8.9, 8.17, 8.25): `w_k += gamma(r(k)) (target - w_k)` for the ranked neurons.
+/// The rate of rank `r` is `coeff * gamma.value[r]` (`coeff` = prefactor x time factor).
+pub fn update_weights<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    coeff: f32,
+    target: &[f32; D],
+) {
+    for (r, &f) in gamma.value.iter().enumerate() {
+        let g = coeff * f;
+        let w = &mut net.w[ranking.index(r)];
+        for d in 0..D {
+            w[d] += g * (target[d] - w[d]);
+        }
+    }
+}
+
+/// (8.5, 8.11, 8.19, 8.24), normalised: the average over ranks `r < K` of the neurons'
+/// local maps (8.1) at `u`, weighted by `alpha(r)`.
+pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    alpha: &Falloff<K>,
+    u: &[f32; D],
+) -> [f32; M] {
+    let mut out = [0.0; M];
+    for r in 0..K {
+        let local = net.local_output(ranking.index(r), u);
+        for m in 0..M {
+            out[m] += alpha.value[r] * local[m];
+        }
+    }
+    let norm = 1.0 / alpha.sum(K);
+    out.iter_mut().for_each(|o| *o *= norm);
+    out
+}
+
+/// (8.12, 8.18, 8.27): `P_k += gamma(r(k)) [p_ref - P_k - A_k (x - w_k)]`.
+///
+/// Unsupervised (8.12, 8.27): `p_ref` is the coarse pressure and `x` the position it reached
+/// (`v_i`): each local map is taught to produce the applied pressure there.
+/// Supervised (8.18): `p_ref = P_target` and `x = v_target`.
+pub fn update_pressures<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    coeff: f32,
+    p_ref: &[f32; M],
+    x: &[f32; D],
+) {
+    for (r, &f) in gamma.value.iter().enumerate() {
+        let g = coeff * f;
+        let k = ranking.index(r);
+        let local = net.local_output(k, x);
+        for m in 0..M {
+            // p_ref - P_k - A_k (x - w_k) = p_ref - local
+            net.p[k][m] += g * (p_ref[m] - local[m]);
+        }
+    }
+}
+
+/// The averaged Jacobian of the fine move (8.14, 8.20, 8.29), normalised, over ranks
+/// `r <= fine_ranks` (S) and `r < K`.
+pub fn mean_jacobian<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    alpha: &Falloff<K>,
+    fine_ranks: usize,
+) -> [[f32; D]; M] {
+    let n = (fine_ranks + 1).min(K);
+    let mut a_bar = [[0.0; D]; M];
+    for r in 0..n {
+        let a = &net.a[ranking.index(r)];
+        let al = alpha.value[r];
+        for m in 0..M {
+            for d in 0..D {
+                a_bar[m][d] += al * a[m][d];
+            }
+        }
+    }
+    let norm = 1.0 / alpha.sum(n);
+    a_bar.iter_mut().flatten().for_each(|x| *x *= norm);
+    a_bar
+}
+
+/// One fine move (8.14): `p_prev + A_bar (target - observed)`, clamped to `±limit`.
+pub fn fine_output<const D: usize, const M: usize>(
+    p_prev: &[f32; M],
+    a_bar: &[[f32; D]; M],
+    target: &[f32; D],
+    observed: &[f32; D],
+    limit: f32,
+) -> [f32; M] {
+    let a = nalgebra::SMatrix::<f32, M, D>::from_fn(|m, d| a_bar[m][d]);
+    let e = nalgebra::SVector::<f32, D>::from_fn(|d, _| target[d] - observed[d]);
+    let p = nalgebra::SVector::<f32, M>::from_column_slice(p_prev) + a * e;
+    clamp(&p.into(), limit)
+}
+
+/// Clamps every pressure to `[-limit, limit]`.
+pub fn clamp<const M: usize>(p: &[f32; M], limit: f32) -> [f32; M] {
+    let mut out = *p;
+    out.iter_mut().for_each(|x| *x = x.clamp(-limit, limit));
+    out
+}
+
+/// (8.15, 8.21, 8.30 in the stage-1 form): the Widrow-Hoff / Broyden rank-one update
+/// `A_k += gamma(r(k)) (dp - A_k dv) dv^T / ||dv||^2`.
+///
+/// Unsupervised (8.15): `dp = P_fine - P_prev`, `dv = v_f - v_prev`.
+/// Supervised (8.21): `dp = P_target - P_fine`, `dv = v_target - v_f`.
+///
+/// (8.30) is printed as `a_k += eps e^{-r/5} a_k (c_target - c_f) dc^T / ||dc||^2`; with
+/// `dp = a_bar (c_target - c_i)` that equals this form when `a_k` is close to `a_bar`
+/// (READING-NOTES.md); this form is used for both stages.
+///
+/// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv|| < min_dv`.
+pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    coeff: f32,
+    dp: &[f32; M],
+    dv: &[f32; D],
+    min_dv: f32,
+) -> Result<()> {
+    let norm2: f32 = dv.iter().map(|x| x * x).sum();
+    // NaN fails every comparison, so it is rejected here too.
+    let long_enough = norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite();
+    if !long_enough {
+        return Err(Error::ZeroLengthDv);
+    }
+    let inv = 1.0 / norm2;
+    for (r, &f) in gamma.value.iter().enumerate() {
+        let g = coeff * f;
+        let a = &mut net.a[ranking.index(r)];
+        for m in 0..M {
+            let mut adv = 0.0;
+            for d in 0..D {
+                adv += a[m][d] * dv[d];
+            }
+            let s = g * (dp[m] - adv) * inv;
+            for d in 0..D {
+                a[m][d] += s * dv[d];
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)]
+mod tests {
+    use super::*;
+    use crate::rank::{RankMode, RankScratch};
+    use proptest::prelude::*;
+
+    fn ranked<const N: usize, const D: usize, const M: usize, const K: usize>(
+        net: &Trn<N, D, M>,
+        u: &[f32; D],
+    ) -> Ranking<K> {
+        let mut s = RankScratch::<N>::new();
+        let mut r = Ranking::<K>::new();
+        r.compute(&net.w, u, &mut s, RankMode::FullSort);
+        r
+    }
+
+    fn two_neurons() -> Trn<2, 2, 1> {
+        let mut net = Trn::<2, 2, 1>::new();
+        net.set_neuron(0, [0.0, 0.0], [1.0], [[0.5, 0.0]]);
+        net.set_neuron(1, [4.0, 0.0], [3.0], [[0.0, 1.0]]);
+        net
+    }
+
+    #[test]
+    fn coarse_output_by_hand() {
+        let net = two_neurons();
+        let u = [1.0, 2.0];
+        let r: Ranking<2> = ranked(&net, &u);
+        assert_eq!(r.indices(), &[0, 1]);
+        let alpha = Falloff::<2>::compute(10.0);
+        // neuron 0: 1 + 0.5*1 = 1.5; neuron 1: 3 + 1*2 = 5
+        let a1 = (-0.1f32).exp();
+        let expect = (1.5 + a1 * 5.0) / (1.0 + a1);
+        let out = coarse_output(&net, &r, &alpha, &u);
+        assert!((out[0] - expect).abs() < 1e-6, "{} vs {}", out[0], expect);
+    }
+
+    #[test]
+    fn weight_update_by_hand() {
+        let mut net = two_neurons();
+        let u = [1.0, 0.0];
+        let r: Ranking<2> = ranked(&net, &u);
+        update_weights(&mut net, &r, &Falloff { value: [0.5, 0.25] }, 1.0, &u);
+        assert_eq!(net.w[0], [0.5, 0.0]);
+        assert_eq!(net.w[1], [3.25, 0.0]);
+    }
+
+    #[test]
+    fn pressure_update_by_hand() {
+        let mut net = two_neurons();
+        let x = [2.0, 0.0];
+        let r: Ranking<2> = ranked(&net, &x); // tie at distance 2: index order
+        update_pressures(
+            &mut net,
+            &r,
+            &Falloff { value: [1.0, 1.0] },
+            0.5,
+            &[2.0],
+            &x,
+        );
+        // neuron 0: local = 1 + 0.5*2 = 2 -> no change; neuron 1: local = 3 + 0 = 3 -> 3 + 0.5*(2-3)
+        assert_eq!(net.p[0], [1.0]);
+        assert_eq!(net.p[1], [2.5]);
+    }
+
+    #[test]
+    fn jacobian_update_by_hand() {
+        let mut net = two_neurons();
+        let r: Ranking<2> = ranked(&net, &[0.0, 0.0]);
+        // neuron 0: A=[0.5,0], dv=[2,0], dp=[3] -> A dv = 1, (3-1)/4 * dv = [1, 0] * gamma 1
+        update_jacobians(
+            &mut net,
+            &r,
+            &Falloff { value: [1.0, 0.0] },
+            1.0,
+            &[3.0],
+            &[2.0, 0.0],
+            1e-3,
+        )
+        .unwrap();
+        assert_eq!(net.a[0], [[1.5, 0.0]]);
+        assert_eq!(net.a[1], [[0.0, 1.0]]);
+        // with gamma = 1 the updated Jacobian maps dv exactly to dp (Broyden)
+        assert_eq!(net.a[0][0][0] * 2.0, 3.0);
+    }
+
+    #[test]
+    fn zero_dv_is_rejected_and_tables_untouched() {
+        let mut net = two_neurons();
+        let before = net.clone();
+        let r: Ranking<2> = ranked(&net, &[0.0, 0.0]);
+        let ones = Falloff { value: [1.0, 1.0] };
+        let e = update_jacobians(&mut net, &r, &ones, 1.0, &[3.0], &[0.0, 0.0], 1e-3);
+        assert_eq!(e, Err(Error::ZeroLengthDv));
+        let e = update_jacobians(&mut net, &r, &ones, 1.0, &[3.0], &[f32::NAN, 0.0], 1e-3);
+        assert_eq!(e, Err(Error::ZeroLengthDv));
+        assert!(net == before);
+    }
+
+    #[test]
+    fn fine_output_by_hand_and_clamped() {
+        let p = fine_output(
+            &[0.1, 0.0],
+            &[[0.1, 0.0], [0.0, -0.2]],
+            &[3.0, 1.0],
+            &[1.0, 2.0],
+            1.0,
+        );
+        assert!((p[0] - 0.3).abs() < 1e-6 && (p[1] - 0.2).abs() < 1e-6);
+        let p = fine_output(
+            &[0.9, 0.0],
+            &[[1.0, 0.0], [0.0, 0.0]],
+            &[3.0, 1.0],
+            &[1.0, 1.0],
+            1.0,
+        );
+        assert_eq!(p[0], 1.0);
+    }
+
+    #[test]
+    fn mean_jacobian_normalised_and_limited_to_s() {
+        let net = two_neurons();
+        let r: Ranking<2> = ranked(&net, &[0.0, 0.0]);
+        let alpha = Falloff::<2>::compute(10.0);
+        let a = mean_jacobian(&net, &r, &alpha, 0); // S = 0: closest only
+        assert_eq!(a, [[0.5, 0.0]]);
+        let a = mean_jacobian(&net, &r, &alpha, 400);
+        let a1 = (-0.1f32).exp();
+        assert!((a[0][1] - a1 / (1.0 + a1)).abs() < 1e-6);
+    }
+
+    /// The truncation to K ranks against the full sum over all N (stage-1 sizes).
+    #[test]
+    fn truncation_of_the_average_is_bounded() {
+        use rand_core::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3);
+        let mut net = crate::net::Stage1Net::new();
+        net.init_random(&mut rng, &crate::Config::paper().stage1.init);
+        let u = [320.0, 240.0, 300.0, 250.0, 340.0, 230.0, 330.0, 220.0];
+        let mut s = RankScratch::<1000>::new();
+        let mut full = Ranking::<1000>::new();
+        full.compute(&net.w, &u, &mut s, RankMode::FullSort);
+        let mut part = Ranking::<128>::new();
+        part.compute(&net.w, &u, &mut s, RankMode::PartialSelect);
+        let pf = coarse_output(&net, &full, &Falloff::<1000>::compute(10.0), &u);
+        let pp = coarse_output(&net, &part, &Falloff::<128>::compute(10.0), &u);
+        let af = mean_jacobian(&net, &full, &Falloff::<1000>::compute(10.0), 400);
+        let ap = mean_jacobian(&net, &part, &Falloff::<128>::compute(10.0), 400);
+        for m in 0..5 {
+            // outputs are O(1); the dropped weight is 2.8e-6 of the total
+            assert!(
+                (pf[m] - pp[m]).abs() < 2e-5,
+                "coarse {m}: {} vs {}",
+                pf[m],
+                pp[m]
+            );
+            for d in 0..8 {
+                assert!((af[m][d] - ap[m][d]).abs() < 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn truncation_of_the_updates_is_exact_in_f32() {
+        use rand_core::SeedableRng;
+        let cfg = crate::Config::paper().stage1;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(4);
+        let mut a = crate::net::Stage1Net::new();
+        a.init_random(&mut rng, &cfg.init);
+        let mut b = a.clone();
+        let u = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+        let mut s = RankScratch::<1000>::new();
+        let mut full = Ranking::<1000>::new();
+        full.compute(&a.w, &u, &mut s, RankMode::FullSort);
+        let mut part = Ranking::<128>::new();
+        part.compute(&b.w, &u, &mut s, RankMode::PartialSelect);
+        let coeff = cfg.w.coeff(1);
+        update_weights(
+            &mut a,
+            &full,
+            &Falloff::<1000>::compute(cfg.sigma),
+            coeff,
+            &u,
+        );
+        update_weights(
+            &mut b,
+            &part,
+            &Falloff::<128>::compute(cfg.sigma),
+            coeff,
+            &u,
+        );
+        let mut max = 0.0f32;
+        for k in 0..1000 {
+            for d in 0..8 {
+                max = max.max((a.w[k][d] - b.w[k][d]).abs());
+            }
+        }
+        assert_eq!(max, 0.0, "weights differ by {max}");
+    }
+
+    proptest! {
+        /// The weight update moves each w_k towards the target and never past it.
+        #[test]
+        fn weights_move_towards_target_never_past(
+            seed in any::<u64>(), t in 1u32..2000,
+            target in prop::array::uniform8(0.0f32..640.0),
+        ) {
+            use rand_core::SeedableRng;
+            let cfg = crate::Config::paper().stage1;
+            let mut net = Trn::<40, 8, 5>::new();
+            net.init_random(&mut rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed), &cfg.init);
+            let before = net.clone();
+            let r: Ranking<40> = ranked(&net, &target);
+            update_weights(&mut net, &r, &Falloff::<40>::compute(cfg.sigma), cfg.w.coeff(t), &target);
+            for k in 0..40 {
+                for d in 0..8 {
+                    let (old, new, x) = (before.w[k][d], net.w[k][d], target[d]);
+                    let (lo, hi) = if old <= x { (old, x) } else { (x, old) };
+                    prop_assert!(new >= lo && new <= hi, "k {k} d {d}: {old} -> {new}, target {x}");
+                    prop_assert!((new - x).abs() <= (old - x).abs());
+                }
+            }
+        }
+
+        /// With rate 1 the Jacobian update solves A dv = dp for the winner (Broyden property),
+        /// and with any rate in (0, 1] it never increases the residual.
+        #[test]
+        fn jacobian_update_reduces_residual(
+            dp in prop::array::uniform3(-1.0f32..1.0),
+            dv in prop::array::uniform4(-50.0f32..50.0),
+            g in 0.01f32..1.0,
+        ) {
+            prop_assume!(dv.iter().map(|x| x * x).sum::<f32>() > 1.0);
+            let mut net = Trn::<1, 4, 3>::new();
+            net.set_neuron(0, [0.0; 4], [0.0; 3], [[0.01, -0.02, 0.0, 0.03]; 3]);
+            let r: Ranking<1> = ranked(&net, &[0.0; 4]);
+            let resid = |n: &Trn<1, 4, 3>| -> f32 {
+                (0..3).map(|m| {
+                    let adv: f32 = (0..4).map(|d| n.a[0][m][d] * dv[d]).sum();
+                    (dp[m] - adv).abs()
+                }).sum()
+            };
+            let before = resid(&net);
+            update_jacobians(&mut net, &r, &Falloff { value: [1.0] }, g, &dp, &dv, 1e-3).unwrap();
+            prop_assert!(resid(&net) <= before * (1.0 - g) + 1e-4);
+        }
+    }
+}

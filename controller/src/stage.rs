@@ -1,0 +1,417 @@
+//! One network's learning step as a state machine driven from outside.
+//!
+//! The caller starts a trial with [`Stage::begin`] and gets the coarse pressure to apply;
+//! each camera observation that follows goes to [`Stage::observe`], which answers with the
+//! next pressure (a fine move) or with the trial's outcome. Nothing blocks, nothing reads
+//! a clock, nothing does I/O.
+
+use crate::config::StageConfig;
+use crate::error::{Error, Result};
+use crate::net::Trn;
+use crate::rank::{RankMode, RankScratch, Ranking};
+use crate::rules::{self, Falloff};
+
+/// Longest error trace kept per trial: the coarse move and up to 31 fine moves.
+pub const TRACE_LEN: usize = 32;
+
+/// What the caller must do next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StageStep<const M: usize> {
+    /// Apply these pressures, let the arm settle, and pass the next observation.
+    Move([f32; M]),
+    /// The trial is over.
+    Done(StageOutcome),
+}
+
+/// The result of one trial of one network.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StageOutcome {
+    /// The learning step `t` of this trial (unchanged by trials that do not learn).
+    pub t: u32,
+    /// Whether the tables were updated.
+    pub learned: bool,
+    /// Whether the target pressure was known (supervised priming).
+    pub supervised: bool,
+    /// Error after the coarse move (pixels).
+    pub coarse_error: f32,
+    /// Error after the last move (pixels).
+    pub final_error: f32,
+    /// Fine moves made.
+    pub fine_moves: u8,
+    /// True when the loop ended at the cap on fine moves rather than within tolerance.
+    pub cap_hit: bool,
+    /// The tolerance the loop aimed at (pixels).
+    pub tolerance: f32,
+    /// Jacobian updates skipped because `dv` was (almost) zero ([`Error::ZeroLengthDv`]).
+    pub skipped_updates: u8,
+    /// Error after the coarse move and after each fine move (first `1 + fine_moves` entries,
+    /// at most [`TRACE_LEN`]).
+    pub trace: [f32; TRACE_LEN],
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Idle,
+    AwaitCoarse,
+    AwaitFine,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Trial<const D: usize, const M: usize> {
+    target: [f32; D],
+    p_target: Option<[f32; M]>,
+    learn: bool,
+    /// Coarse pressure P_bar (substep 4).
+    p_bar: [f32; M],
+    /// Pressure applied before the last one, and the position it reached.
+    p_prev: [f32; M],
+    v_prev: [f32; D],
+    /// The last pressure applied.
+    p_last: [f32; M],
+    outcome: StageOutcome,
+}
+
+/// One network with its ranking machinery and trial state. `K` is the number of ranks
+/// that carry weight (see [`crate::rules`] on the truncation).
+#[derive(Clone)]
+pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize> {
+    net: Trn<N, D, M>,
+    cfg: StageConfig,
+    rank_mode: RankMode,
+    t: u32,
+    scratch: RankScratch<N>,
+    ranking: Ranking<K>,
+    alpha: Falloff<K>,
+    neighbour: Falloff<K>,
+    phase: Phase,
+    trial: Trial<D, M>,
+}
+
+impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
+    /// A stage with zero tables. Call [`Stage::init_random`] (or restore a checkpoint)
+    /// before use.
+    pub const fn new(cfg: StageConfig) -> Self {
+        Stage {
+            net: Trn::new(),
+            cfg,
+            rank_mode: RankMode::PartialSelect,
+            t: 0,
+            scratch: RankScratch::new(),
+            ranking: Ranking::new(),
+            alpha: Falloff::zero(),
+            neighbour: Falloff::zero(),
+            phase: Phase::Idle,
+            trial: Trial {
+                target: [0.0; D],
+                p_target: None,
+                learn: false,
+                p_bar: [0.0; M],
+                p_prev: [0.0; M],
+                v_prev: [0.0; D],
+                p_last: [0.0; M],
+                outcome: StageOutcome {
+                    t: 0,
+                    learned: false,
+                    supervised: false,
+                    coarse_error: 0.0,
+                    final_error: 0.0,
+                    fine_moves: 0,
+                    cap_hit: false,
+                    tolerance: 0.0,
+                    skipped_updates: 0,
+                    trace: [0.0; TRACE_LEN],
+                },
+            },
+        }
+    }
+
+    /// Random initial tables, learning step 0, precomputed rank tables.
+    pub fn init_random(&mut self, rng: &mut impl rand_core::RngCore) {
+        self.net.init_random(rng, &self.cfg.init);
+        self.t = 0;
+        self.phase = Phase::Idle;
+        self.prepare();
+    }
+
+    /// Recomputes the rank tables from the configuration.
+    pub(crate) fn prepare(&mut self) {
+        self.alpha = Falloff::compute(self.cfg.alpha_range);
+        self.neighbour = Falloff::compute(self.cfg.sigma);
+    }
+
+    /// Replaces the configuration (between trials).
+    pub fn set_config(&mut self, cfg: StageConfig) -> Result<()> {
+        if self.phase != Phase::Idle {
+            return Err(Error::Busy);
+        }
+        self.cfg = cfg;
+        self.prepare();
+        Ok(())
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &StageConfig {
+        &self.cfg
+    }
+
+    /// Chooses full sort (reference) or partial selection for the ranking.
+    pub fn set_rank_mode(&mut self, mode: RankMode) {
+        self.rank_mode = mode;
+    }
+
+    /// The network tables.
+    pub fn net(&self) -> &Trn<N, D, M> {
+        &self.net
+    }
+
+    /// Learning steps completed.
+    pub fn learning_step(&self) -> u32 {
+        self.t
+    }
+
+    pub(crate) fn restore_parts(&mut self, t: u32) {
+        self.t = t;
+        self.phase = Phase::Idle;
+        self.prepare();
+    }
+
+    pub(crate) fn net_mut(&mut self) -> &mut Trn<N, D, M> {
+        &mut self.net
+    }
+
+    /// True while a trial is running.
+    pub fn busy(&self) -> bool {
+        self.phase != Phase::Idle
+    }
+
+    /// The last pressure commanded.
+    pub fn last_command(&self) -> [f32; M] {
+        self.trial.p_last
+    }
+
+    /// Abandons the running trial (updates already made stay: they came from valid data).
+    pub fn abort(&mut self) {
+        self.phase = Phase::Idle;
+    }
+
+    pub(crate) fn check_input(&self, u: &[f32; D]) -> Result<()> {
+        for (i, &x) in u.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(Error::NonFiniteInput { index: i as u8 });
+            }
+            if x < self.cfg.input_min || x > self.cfg.input_max {
+                return Err(Error::InputOutOfRange {
+                    index: i as u8,
+                    value: x,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Starts a trial towards `target`.
+    ///
+    /// - `p_target = Some(..)` (supervised priming, stage 1): the pressure that produced the
+    ///   target is known; substeps 3-6 of the supervised scheme (8.17-8.19).
+    /// - `learn = true`, no `p_target`: the unsupervised scheme, substeps 2-4 (8.9-8.11).
+    /// - `learn = false`: mature operation; the tables are not touched.
+    ///
+    /// Returns the coarse pressure (8.5) to apply.
+    pub fn begin(
+        &mut self,
+        target: &[f32; D],
+        p_target: Option<&[f32; M]>,
+        learn: bool,
+    ) -> Result<[f32; M]> {
+        if self.phase != Phase::Idle {
+            return Err(Error::Busy);
+        }
+        self.check_input(target)?;
+        if let Some(p) = p_target {
+            for (i, &x) in p.iter().enumerate() {
+                if !x.is_finite() || x.abs() > self.cfg.pressure_limit {
+                    return Err(Error::InvalidPressure { index: i as u8 });
+                }
+            }
+        }
+        let learn = learn || p_target.is_some();
+        self.ranking
+            .compute(&self.net.w, target, &mut self.scratch, self.rank_mode);
+        self.begin_ranked(target, p_target, learn)
+    }
+
+    fn begin_ranked(
+        &mut self,
+        target: &[f32; D],
+        p_target: Option<&[f32; M]>,
+        learn: bool,
+    ) -> Result<[f32; M]> {
+        if !learn {
+            let distance = self.ranking.distance(0);
+            if distance > self.cfg.max_target_distance {
+                return Err(Error::TargetOutsideLearnedRegion { distance });
+            }
+        }
+        let t = if learn { self.t + 1 } else { self.t };
+        let tolerance = if learn {
+            self.cfg.tolerance.at(t)
+        } else {
+            self.cfg.mature_tolerance
+        };
+        if learn {
+            self.t = t;
+            if self.cfg.sigma_start != self.cfg.sigma {
+                self.neighbour = Falloff::compute(self.cfg.sigma_at(t));
+            }
+            // substep 3 (8.9 / 8.17 / 8.25)
+            rules::update_weights(
+                &mut self.net,
+                &self.ranking,
+                &self.neighbour,
+                self.cfg.w.coeff(t),
+                target,
+            );
+            if let Some(p) = p_target {
+                // supervised substep 5 (8.18)
+                rules::update_pressures(
+                    &mut self.net,
+                    &self.ranking,
+                    &self.neighbour,
+                    self.cfg.p.coeff(t),
+                    p,
+                    target,
+                );
+            }
+        }
+        // substep 4 (8.11 / 8.19 / 8.24), normalised
+        let p_bar = rules::clamp(
+            &rules::coarse_output(&self.net, &self.ranking, &self.alpha, target),
+            self.cfg.pressure_limit,
+        );
+        self.trial = Trial {
+            target: *target,
+            p_target: p_target.copied(),
+            learn,
+            p_bar,
+            p_prev: p_bar,
+            v_prev: [0.0; D],
+            p_last: p_bar,
+            outcome: StageOutcome {
+                t,
+                learned: learn,
+                supervised: p_target.is_some(),
+                coarse_error: 0.0,
+                final_error: 0.0,
+                fine_moves: 0,
+                cap_hit: false,
+                tolerance,
+                skipped_updates: 0,
+                trace: [0.0; TRACE_LEN],
+            },
+        };
+        self.phase = Phase::AwaitCoarse;
+        Ok(p_bar)
+    }
+
+    /// Consumes the observation that followed the last command.
+    pub fn observe(&mut self, v: &[f32; D]) -> Result<StageStep<M>> {
+        if self.phase == Phase::Idle {
+            return Err(Error::UnexpectedObservation);
+        }
+        self.check_input(v)?;
+        let target = self.trial.target;
+        let d = distance(v, &target);
+        let tr = &mut self.trial;
+        let t = tr.outcome.t;
+        match self.phase {
+            Phase::AwaitCoarse => {
+                tr.outcome.coarse_error = d;
+                tr.outcome.trace[0] = d;
+                if tr.learn && tr.p_target.is_none() {
+                    // substep 6 (8.12 / 8.27): teach each map the pressure that reached v_i
+                    rules::update_pressures(
+                        &mut self.net,
+                        &self.ranking,
+                        &self.neighbour,
+                        self.cfg.p.coeff(t),
+                        &tr.p_bar,
+                        v,
+                    );
+                }
+                let must_refine = tr.learn && self.cfg.min_fine_moves_learning > 0;
+                let over = d > tr.outcome.tolerance;
+                if (!over && !must_refine) || self.cfg.max_fine_moves == 0 {
+                    return Ok(self.finish(d, over));
+                }
+            }
+            Phase::AwaitFine => {
+                tr.outcome.fine_moves += 1;
+                let n = tr.outcome.fine_moves as usize;
+                if n < TRACE_LEN {
+                    tr.outcome.trace[n] = d;
+                }
+                if tr.learn {
+                    // substep 9 (8.15), or supervised substep 12 (8.21)
+                    let (dp, dv) = match tr.p_target {
+                        Some(pt) => (sub(&pt, &tr.p_last), sub(&target, v)),
+                        None => (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev)),
+                    };
+                    let coeff = self.cfg.j.coeff(t);
+                    if rules::update_jacobians(
+                        &mut self.net,
+                        &self.ranking,
+                        &self.neighbour,
+                        coeff,
+                        &dp,
+                        &dv,
+                        self.cfg.min_dv,
+                    )
+                    .is_err()
+                    {
+                        tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
+                    }
+                }
+                let fine = tr.outcome.fine_moves;
+                let enough = fine >= self.cfg.min_fine_moves_learning || !tr.learn;
+                if d <= tr.outcome.tolerance && enough {
+                    return Ok(self.finish(d, false));
+                }
+                let over = d > tr.outcome.tolerance;
+                if fine >= self.cfg.max_fine_moves || fine as usize >= TRACE_LEN - 1 {
+                    return Ok(self.finish(d, over));
+                }
+            }
+            Phase::Idle => return Err(Error::UnexpectedObservation),
+        }
+        // substep 7 (8.14 / 8.20 / 8.29): the next fine move from the last applied pressure
+        // and the last observed position.
+        let tr = &mut self.trial;
+        let a_bar = rules::mean_jacobian(
+            &self.net,
+            &self.ranking,
+            &self.alpha,
+            self.cfg.fine_ranks as usize,
+        );
+        let p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, self.cfg.pressure_limit);
+        tr.p_prev = tr.p_last;
+        tr.v_prev = *v;
+        tr.p_last = p_fine;
+        self.phase = Phase::AwaitFine;
+        Ok(StageStep::Move(p_fine))
+    }
+
+    fn finish(&mut self, d: f32, cap_hit: bool) -> StageStep<M> {
+        self.trial.outcome.final_error = d;
+        self.trial.outcome.cap_hit = cap_hit;
+        self.phase = Phase::Idle;
+        StageStep::Done(self.trial.outcome)
+    }
+}
+
+fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
+    libm::sqrtf(a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum())
+}
+
+fn sub<const M: usize>(a: &[f32; M], b: &[f32; M]) -> [f32; M] {
+    core::array::from_fn(|i| a[i] - b[i])
+}
