@@ -74,6 +74,11 @@ impl<const N: usize, const D: usize, const M: usize> Trn<N, D, M> {
         }
     }
 
+    /// All weights (for ranking).
+    pub fn weights(&self) -> &[[f32; D]; N] {
+        &self.w
+    }
+
     /// The weight `w_k`.
     pub fn weight(&self, k: usize) -> &[f32; D] {
         &self.w[k]
