@@ -310,3 +310,19 @@ impl Controller {
         (&mut self.stage1, &mut self.stage2)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The static RAM budget is checked on the firmware link (scripts/cross/budget.sh);
+    /// this only keeps the controller's own state from growing unnoticed.
+    #[test]
+    fn controller_state_is_small_beside_the_tables() {
+        let size = core::mem::size_of::<Controller>();
+        let tables = crate::Stage1Net::TABLE_BYTES + crate::Stage2Net::TABLE_BYTES;
+        assert_eq!(tables, 227_200);
+        println!("Controller: {size} bytes, of which tables {tables}");
+        assert!(size - tables < 16 * 1024, "controller state {} bytes beyond the tables", size - tables);
+    }
+}

@@ -1,0 +1,325 @@
+//! The controller node at message level: a trial, bad observations, lost frames, a grasp.
+
+use trn_controller::{Config, Controller};
+use trn_node::{codes, ControllerNode, NodeConfig, Outbox};
+use trn_protocol::{
+    CaptureKind, Envelope, GraspRequest, Message, NodeId, Observation, PixelPoint, PointStatus,
+    Stage1Target, Stage2Target, SupervisedPressure,
+};
+
+const V: [f32; 8] = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+const C: [f32; 4] = [300.0, 200.0, 310.0, 210.0];
+
+fn setup() -> (Box<Controller>, ControllerNode) {
+    let mut c = Box::new(Controller::new(Config::project_default()));
+    c.init_random(1);
+    (c, ControllerNode::new(NodeConfig::default()))
+}
+
+fn to_ctrl(msg: Message) -> Envelope {
+    Envelope::new(NodeId::Controller, msg)
+}
+
+fn lights(seq: u16, v: &[f32; 8]) -> Envelope {
+    let p = |i: usize| PixelPoint::valid(v[2 * i], v[2 * i + 1]);
+    let o = Observation {
+        seq,
+        what: CaptureKind::GripperLights,
+        points: [p(0), p(1), p(2), p(3)],
+    };
+    Envelope::new(NodeId::CameraProcessor, o.into())
+}
+
+fn centre(seq: u16, c: &[f32; 4]) -> Envelope {
+    let o = Observation::centre(
+        seq,
+        PixelPoint::valid(c[0], c[1]),
+        PixelPoint::valid(c[2], c[3]),
+    );
+    Envelope::new(NodeId::CameraProcessor, o.into())
+}
+
+/// The capture request of `out` (there must be one), after checking the pressure commands.
+fn capture(out: &Outbox, joints: usize) -> (u16, CaptureKind) {
+    let cmds = out
+        .iter()
+        .filter(|e| matches!(e.msg, Message::PressureCommand(_)))
+        .count();
+    assert_eq!(cmds, joints, "{out:?}");
+    out.iter()
+        .find_map(|e| match e.msg {
+            Message::CaptureRequest(r) => Some((r.seq, r.what)),
+            _ => None,
+        })
+        .expect("a capture request")
+}
+
+fn reports(out: &Outbox) -> Vec<trn_protocol::TrialReport> {
+    out.iter()
+        .filter_map(|e| match e.msg {
+            Message::TrialReport(r) => Some(r),
+            _ => None,
+        })
+        .collect()
+}
+
+fn errors(out: &Outbox) -> Vec<(u16, u32)> {
+    out.iter()
+        .filter_map(|e| match e.msg {
+            Message::ErrorReport(r) => Some((r.code, r.detail)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_supervised_trial_runs_to_its_report() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            SupervisedPressure {
+                trial: 7,
+                p: [0.1; 5],
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    assert!(out.is_empty());
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage1Target {
+                trial: 7,
+                learn: true,
+                grasp: false,
+                v: V,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    let (mut seq, what) = capture(&out, 5);
+    assert_eq!(what, CaptureKind::GripperLights);
+    // the arm lands on target at once: one fine move (always made while learning), then done
+    for _ in 0..10 {
+        out.clear();
+        n.on_message(&mut c, &lights(seq, &V), 10, &mut out);
+        let r = reports(&out);
+        if let Some(r) = r.first() {
+            assert_eq!(
+                (r.trial, r.stage),
+                (7, 0),
+                "a supervised trial reports stage 0"
+            );
+            assert_eq!(r.final_error_px, 0.0);
+            assert_eq!(n.trial(), None);
+            return;
+        }
+        seq = capture(&out, 5).0;
+    }
+    panic!("no report");
+}
+
+#[test]
+fn invalid_points_abort_the_trial_with_reasons() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage2Target {
+                trial: 3,
+                learn: true,
+                grasp: false,
+                c: C,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    let (seq, what) = capture(&out, 3);
+    assert_eq!(what, CaptureKind::GripperCentre);
+    out.clear();
+    let mut bad = Observation::centre(
+        seq,
+        PixelPoint::valid(1.0, 2.0),
+        PixelPoint::valid(3.0, 4.0),
+    );
+    bad.points[1].status = PointStatus::Occluded;
+    n.on_message(
+        &mut c,
+        &Envelope::new(NodeId::CameraProcessor, bad.into()),
+        5,
+        &mut out,
+    );
+    assert_eq!(
+        errors(&out),
+        vec![
+            (
+                codes::INVALID_OBSERVATION,
+                (1 << 8) | PointStatus::Occluded as u32
+            ),
+            (codes::TRIAL_ABORTED, 3)
+        ]
+    );
+    assert!(!c.busy());
+    // a late observation of the aborted trial is ignored
+    out.clear();
+    n.on_message(&mut c, &centre(seq, &C), 6, &mut out);
+    assert!(out.is_empty());
+    assert_eq!(n.stats().stale_observations, 1);
+}
+
+#[test]
+fn stale_and_foreign_observations_are_ignored_and_lost_ones_retried() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage1Target {
+                trial: 1,
+                learn: false,
+                grasp: false,
+                v: V,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    let (seq, _) = capture(&out, 5);
+    out.clear();
+    n.on_message(&mut c, &lights(seq.wrapping_add(9), &V), 1, &mut out);
+    n.on_message(&mut c, &centre(seq, &C), 1, &mut out);
+    assert!(out.is_empty());
+    assert_eq!(n.stats().stale_observations, 2);
+    // the observation is lost: the capture is requested again, then the trial is aborted
+    n.poll(&mut c, 1999, &mut out);
+    assert!(!out
+        .iter()
+        .any(|e| matches!(e.msg, Message::CaptureRequest(_))));
+    out.clear();
+    n.poll(&mut c, 2000, &mut out);
+    assert!(out
+        .iter()
+        .any(|e| matches!(e.msg, Message::CaptureRequest(r) if r.seq == seq)));
+    out.clear();
+    n.poll(&mut c, 4000, &mut out);
+    out.clear();
+    n.poll(&mut c, 6000, &mut out);
+    assert_eq!(
+        errors(&out),
+        vec![
+            (codes::OBSERVATION_TIMEOUT, seq as u32),
+            (codes::TRIAL_ABORTED, 1)
+        ]
+    );
+    assert_eq!(n.stats().capture_retries, 2);
+}
+
+#[test]
+fn non_finite_targets_are_rejected_with_a_report() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    let mut v = V;
+    v[2] = f32::INFINITY;
+    // the protocol layer validates floats too; the node must cope if one gets through
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage1Target {
+                trial: 4,
+                learn: true,
+                grasp: false,
+                v,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    assert_eq!(
+        errors(&out),
+        vec![(codes::CONTROLLER_ERROR, 0x102), (codes::TRIAL_ABORTED, 4)]
+    );
+}
+
+#[test]
+fn a_grasp_moves_stage_1_then_stage_2_then_closes() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(
+        &mut c,
+        &to_ctrl(GraspRequest { trial: 9 }.into()),
+        0,
+        &mut out,
+    );
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage1Target {
+                trial: 9,
+                learn: false,
+                grasp: true,
+                v: V,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    assert!(
+        out.is_empty(),
+        "the grasp starts once both targets are known"
+    );
+    n.on_message(
+        &mut c,
+        &to_ctrl(
+            Stage2Target {
+                trial: 9,
+                learn: false,
+                grasp: true,
+                c: C,
+            }
+            .into(),
+        ),
+        0,
+        &mut out,
+    );
+    let (seq, what) = capture(&out, 5);
+    assert_eq!(what, CaptureKind::GripperLights);
+    out.clear();
+    n.on_message(&mut c, &lights(seq, &V), 1, &mut out);
+    let (seq, what) = capture(&out, 3);
+    assert_eq!(what, CaptureKind::GripperCentre);
+    out.clear();
+    n.on_message(&mut c, &centre(seq, &C), 2, &mut out);
+    let r = reports(&out);
+    assert_eq!(r.iter().map(|r| r.stage).collect::<Vec<_>>(), vec![1, 2]);
+    assert!(out
+        .iter()
+        .any(|e| matches!(e.msg, Message::GripperCommand(g) if g.close)));
+}
+
+#[test]
+fn heartbeats_every_period() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    let mut beats = 0;
+    for t in (0..1000).step_by(10) {
+        out.clear();
+        n.poll(&mut c, t, &mut out);
+        beats += out
+            .iter()
+            .filter(|e| matches!(e.msg, Message::Heartbeat(_)))
+            .count();
+    }
+    assert_eq!(beats, 10);
+}
