@@ -1,4 +1,45 @@
-//! Placeholder; filled in by its issue.
+//! The TRN CAN protocol: postcard messages framed onto CAN 2.0 and CAN FD.
+//!
+//! * [`Message`]: every message between the controller, the servo drives, the camera
+//!   processor, the gripper and the experiment runner; fixed little-endian layouts.
+//! * [`CanId`]: 11-bit ids `kind << 4 | node` ([`MessageKind`] = priority, [`NodeId`]).
+//! * [`encode`] / [`Encoder`]: one classical frame for short messages, segmentation with a
+//!   CRC-32 for long ones on CAN 2.0, one FD frame on CAN FD.
+//! * [`Reassembler`]: bounded reassembly and decoding with typed errors.
+//! * [`HeartbeatMonitor`]: safe state on heartbeat loss.
+//! * [`candump`]: the candump log format.
+//! * `bus` (feature `std`): the in-process virtual bus and SocketCAN (feature `socketcan`).
+//!
+//! The wire format is specified in `protocol/SPEC.md`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
+
+pub mod candump;
+mod envelope;
+mod error;
+mod frame;
+pub mod heartbeat;
+mod id;
+mod message;
+mod node;
+mod reassembly;
+mod segment;
+
+#[cfg(feature = "std")]
+pub mod bus;
+
+pub use envelope::{BusMode, Envelope};
+pub use error::{Error, Result};
+pub use frame::{fd_len_for, CanFrame, CLASSIC_MAX, FD_MAX};
+pub use heartbeat::{HeartbeatConfig, HeartbeatEvent, HeartbeatMonitor, HeartbeatSender};
+pub use id::{CanId, MessageKind, MAX_STANDARD_ID};
+pub use message::*;
+pub use node::{Joint, NodeId, JOINTS};
+pub use reassembly::{Reassembler, DEFAULT_STALE_MS};
+pub use segment::{encode, segment_count, segment_len, Encoder, Frames, CRC_LEN, MAX_SEGMENTS};
+
+/// The README's code examples run as doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

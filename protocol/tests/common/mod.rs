@@ -1,0 +1,232 @@
+//! Proptest strategies shared by the integration tests.
+#![allow(dead_code)]
+
+use proptest::prelude::*;
+use trn_protocol::*;
+
+pub fn px() -> impl Strategy<Value = f32> {
+    -2000.0f32..2000.0
+}
+
+pub fn point() -> impl Strategy<Value = PixelPoint> {
+    (
+        px(),
+        px(),
+        prop_oneof![
+            Just(PointStatus::Valid),
+            Just(PointStatus::OutOfView),
+            Just(PointStatus::Occluded),
+            Just(PointStatus::NotDetected)
+        ],
+    )
+        .prop_map(|(x, y, status)| PixelPoint { x, y, status })
+}
+
+pub fn capture_kind() -> impl Strategy<Value = CaptureKind> {
+    prop_oneof![
+        Just(CaptureKind::GripperLights),
+        Just(CaptureKind::GripperCentre)
+    ]
+}
+
+pub fn servo() -> impl Strategy<Value = NodeId> {
+    (0u8..5).prop_map(|j| NodeId::servo(j).unwrap())
+}
+
+pub fn any_node() -> impl Strategy<Value = NodeId> {
+    prop_oneof![
+        Just(NodeId::Controller),
+        servo(),
+        Just(NodeId::CameraProcessor),
+        Just(NodeId::Gripper),
+        Just(NodeId::Runner)
+    ]
+}
+
+fn safe_state() -> impl Strategy<Value = SafeState> {
+    prop_oneof![
+        Just(SafeState::Normal),
+        Just(SafeState::HoldLast),
+        Just(SafeState::Vented)
+    ]
+}
+
+fn node_state() -> impl Strategy<Value = NodeState> {
+    prop_oneof![
+        Just(NodeState::Booting),
+        Just(NodeState::Operational),
+        Just(NodeState::SafeState),
+        Just(NodeState::Fault)
+    ]
+}
+
+fn mode() -> impl Strategy<Value = Mode> {
+    prop_oneof![
+        Just(Mode::Idle),
+        Just(Mode::Priming),
+        Just(Mode::Training),
+        Just(Mode::Mature)
+    ]
+}
+
+fn emergency_reason() -> impl Strategy<Value = EmergencyReason> {
+    prop_oneof![
+        Just(EmergencyReason::Operator),
+        Just(EmergencyReason::HeartbeatLost),
+        Just(EmergencyReason::PressureFault),
+        Just(EmergencyReason::ControllerFault),
+        Just(EmergencyReason::BusFault)
+    ]
+}
+
+fn safe_reason() -> impl Strategy<Value = SafeStateReason> {
+    prop_oneof![
+        Just(SafeStateReason::HeartbeatLost),
+        Just(SafeStateReason::Emergency),
+        Just(SafeStateReason::Commanded)
+    ]
+}
+
+fn safe_action() -> impl Strategy<Value = SafeStateAction> {
+    prop_oneof![Just(SafeStateAction::HoldLast), Just(SafeStateAction::Vent)]
+}
+
+fn observation() -> impl Strategy<Value = Observation> {
+    (
+        any::<u16>(),
+        capture_kind(),
+        [point(), point(), point(), point()],
+    )
+        .prop_map(|(seq, what, points)| match what {
+            CaptureKind::GripperLights => Observation { seq, what, points },
+            CaptureKind::GripperCentre => Observation::centre(seq, points[0], points[1]),
+        })
+}
+
+/// Any valid envelope of any kind, with a node the kind allows.
+pub fn envelope() -> impl Strategy<Value = Envelope> {
+    let raw = 0u16..=4095;
+    prop_oneof![
+        (servo(), any::<u16>(), raw.clone())
+            .prop_map(|(n, seq, raw)| Envelope::new(n, PressureCommand { seq, raw }.into())),
+        (
+            servo(),
+            any::<u16>(),
+            raw.clone(),
+            any::<bool>(),
+            safe_state()
+        )
+            .prop_map(|(n, seq, raw, saturated, safe_state)| Envelope::new(
+                n,
+                ServoStatus {
+                    seq,
+                    raw,
+                    saturated,
+                    safe_state
+                }
+                .into()
+            )),
+        (any::<u16>(), capture_kind()).prop_map(|(seq, what)| Envelope::new(
+            NodeId::CameraProcessor,
+            CaptureRequest { seq, what }.into()
+        )),
+        observation().prop_map(|o| Envelope::new(NodeId::CameraProcessor, o.into())),
+        (
+            any::<u32>(),
+            any::<bool>(),
+            any::<bool>(),
+            proptest::array::uniform8(px())
+        )
+            .prop_map(|(trial, learn, grasp, v)| Envelope::new(
+                NodeId::Controller,
+                Stage1Target {
+                    trial,
+                    learn,
+                    grasp,
+                    v
+                }
+                .into()
+            )),
+        (
+            any::<u32>(),
+            any::<bool>(),
+            any::<bool>(),
+            proptest::array::uniform4(px())
+        )
+            .prop_map(|(trial, learn, grasp, c)| Envelope::new(
+                NodeId::Controller,
+                Stage2Target {
+                    trial,
+                    learn,
+                    grasp,
+                    c
+                }
+                .into()
+            )),
+        (any::<u32>(), proptest::array::uniform5(-1.0f32..=1.0)).prop_map(|(trial, p)| {
+            Envelope::new(NodeId::Controller, SupervisedPressure { trial, p }.into())
+        }),
+        any::<u32>()
+            .prop_map(|trial| Envelope::new(NodeId::Controller, GraspRequest { trial }.into())),
+        (
+            any::<u32>(),
+            0u8..=2,
+            0.0f32..1e4,
+            0.0f32..1e4,
+            any::<u8>(),
+            any::<bool>()
+        )
+            .prop_map(
+                |(trial, stage, coarse_error_px, final_error_px, fine_moves, cap_hit)| {
+                    Envelope::new(
+                        NodeId::Controller,
+                        TrialReport {
+                            trial,
+                            stage,
+                            coarse_error_px,
+                            final_error_px,
+                            fine_moves,
+                            cap_hit,
+                        }
+                        .into(),
+                    )
+                }
+            ),
+        any::<bool>()
+            .prop_map(|close| Envelope::new(NodeId::Gripper, GripperCommand { close }.into())),
+        any::<bool>()
+            .prop_map(|closed| Envelope::new(NodeId::Gripper, GripperStatus { closed }.into())),
+        (any_node(), any::<u8>(), node_state())
+            .prop_map(|(n, counter, state)| Envelope::new(n, Heartbeat { counter, state }.into())),
+        (
+            prop_oneof![Just(NodeId::Controller), Just(NodeId::Broadcast)],
+            mode()
+        )
+            .prop_map(|(n, mode)| Envelope::new(n, ModeChange { mode }.into())),
+        (any_node(), any::<u16>(), any::<u32>())
+            .prop_map(|(n, code, detail)| Envelope::new(n, ErrorReport { code, detail }.into())),
+        (any_node(), emergency_reason())
+            .prop_map(|(n, reason)| Envelope::new(n, Emergency { reason }.into())),
+        (any_node(), safe_reason(), safe_action(), raw).prop_map(
+            |(n, reason, action, held_raw)| {
+                Envelope::new(
+                    n,
+                    SafeStateEntered {
+                        reason,
+                        action,
+                        held_raw,
+                    }
+                    .into(),
+                )
+            }
+        ),
+        (any::<u32>(), any::<u32>()).prop_map(|(bytes, crc)| Envelope::new(
+            NodeId::Controller,
+            CheckpointSaved { bytes, crc }.into()
+        )),
+    ]
+}
+
+pub fn mode_strategy() -> impl Strategy<Value = BusMode> {
+    prop_oneof![Just(BusMode::Classic), Just(BusMode::Fd)]
+}
