@@ -23,36 +23,3 @@ pub use node::{
     codes, controller_error_code, send, ControllerNode, FrameError, NodeConfig, NodeStats, Outbox,
     OUTBOX,
 };
-
-/// Normalised pressure difference in [-1, 1] to the servo drives' 12-bit command.
-pub fn pressure_to_raw(p: f32) -> u16 {
-    let p = if p.is_finite() {
-        p.clamp(-1.0, 1.0)
-    } else {
-        0.0
-    };
-    let raw = (p + 1.0) * 0.5 * 4095.0 + 0.5;
-    (raw as u16).min(4095)
-}
-
-/// The 12-bit servo value to a normalised pressure difference.
-pub fn raw_to_pressure(raw: u16) -> f32 {
-    raw.min(4095) as f32 / 4095.0 * 2.0 - 1.0
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn raw_conversion() {
-        assert_eq!(pressure_to_raw(-1.0), 0);
-        assert_eq!(pressure_to_raw(1.0), 4095);
-        assert_eq!(pressure_to_raw(0.0), 2048);
-        assert_eq!(pressure_to_raw(f32::NAN), 2048);
-        assert_eq!(pressure_to_raw(7.0), 4095);
-        for raw in [0u16, 1, 2047, 2048, 4094, 4095] {
-            assert_eq!(pressure_to_raw(raw_to_pressure(raw)), raw);
-        }
-    }
-}

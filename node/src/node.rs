@@ -1,6 +1,5 @@
 //! The controller node's state machine.
 
-use crate::pressure_to_raw;
 use trn_controller::{
     Command, Controller, Error as CtrlError, Observation as CtrlObs, ObserveKind, Outcome, Task,
 };
@@ -458,7 +457,8 @@ impl ControllerNode {
             } => {
                 self.seq = self.seq.wrapping_add(1);
                 for (j, joint) in Joint::ALL.iter().enumerate().take(joints as usize) {
-                    let raw = pressure_to_raw(pressures[j]);
+                    // the controller clamps its pressures to [-1, 1] and never emits NaN
+                    let raw = trn_protocol::pressure_to_raw(pressures[j]).unwrap_or(2048);
                     push(
                         out,
                         NodeId::Servo(*joint),

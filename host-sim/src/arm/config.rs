@@ -1,0 +1,302 @@
+//! The simulator's configuration: every parameter with its unit, loaded from TOML
+//! (`host-sim/sim.toml` documents the defaults).
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+use super::SimError;
+
+/// One pneumatic joint: servo drive, hysteresis and dynamics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointConfig {
+    /// Name (for messages and pictures).
+    pub name: String,
+    /// Joint angle at the most negative pressure difference (degrees).
+    pub min_deg: f64,
+    /// Joint angle at the most positive pressure difference (degrees).
+    pub max_deg: f64,
+    /// Random target pressures are drawn from `[-target_limit, target_limit]` (normalised).
+    pub target_limit: f64,
+    /// Hysteresis loop width: the gap between the ascending and descending branches over a
+    /// full cycle, as a fraction of the joint's range (0 = single-valued).
+    pub hysteresis_width: f64,
+    /// Asymmetry of the loop in [0, 1): the ascending branch lags by `(1 + a)` and the
+    /// descending one by `(1 - a)` of the mean half-width.
+    pub hysteresis_asymmetry: f64,
+    /// Natural frequency of the joint's second-order dynamics (Hz).
+    pub natural_freq_hz: f64,
+    /// Damping ratio (below 1: overshoot and oscillation).
+    pub damping_ratio: f64,
+    /// Time constant of the servo drive's first-order pressure lag (s).
+    pub pressure_tau_s: f64,
+    /// The servo drive saturates the command at `±servo_limit` (normalised).
+    pub servo_limit: f64,
+}
+
+/// One pinhole camera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraConfig {
+    /// Image width and height (pixels).
+    pub resolution: [u32; 2],
+    /// Focal length (pixels).
+    pub focal_px: f64,
+    /// Camera centre in the arm's base frame (mm; x forward, y left, z up).
+    pub position_mm: [f64; 3],
+    /// The point the optical axis passes through (mm).
+    pub look_at_mm: [f64; 3],
+    /// Radial distortion coefficients k1, k2 (normalised image coordinates).
+    pub distortion: [f64; 2],
+}
+
+/// Slow drift and wear, off by default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftConfig {
+    /// Temperature drift on.
+    pub temperature: bool,
+    /// Amplitude of the temperature offset of every joint (degrees).
+    pub temperature_amplitude_deg: f64,
+    /// Period of the temperature cycle (s of simulated time).
+    pub temperature_period_s: f64,
+    /// Wear on.
+    pub wear: bool,
+    /// Loss of joint gain per radian of cumulative travel (fraction).
+    pub wear_gain_per_rad: f64,
+    /// Offset gained per radian of cumulative travel (degrees).
+    pub wear_offset_deg_per_rad: f64,
+}
+
+/// The whole simulator configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimConfig {
+    /// Physics step (s).
+    pub dt_s: f64,
+    /// Time from a command to the camera reading (s): residual oscillation is part of the error.
+    pub settle_s: f64,
+    /// Height of the shoulder above the base (mm).
+    pub shoulder_height_mm: f64,
+    /// Shoulder to elbow (mm).
+    pub upper_arm_mm: f64,
+    /// Elbow to wrist (mm).
+    pub forearm_mm: f64,
+    /// Wrist to gripper centre (mm).
+    pub hand_mm: f64,
+    /// Distance of each of the lights p and q from the gripper centre, along the axis the
+    /// cylinder will have (mm).
+    pub light_offset_mm: f64,
+    /// Radius of the links for occlusion (mm).
+    pub link_radius_mm: f64,
+    /// Pixel noise of a light centroid, per coordinate (pixels, standard deviation).
+    pub pixel_noise_px: f64,
+    /// The five joints.
+    pub joints: Vec<JointConfig>,
+    /// The two cameras.
+    pub cameras: Vec<CameraConfig>,
+    /// Drift and wear.
+    pub drift: DriftConfig,
+    /// The cylinder's centre lies this far ahead of the pre-grasp gripper centre (mm).
+    pub approach_mm: f64,
+    /// Cylinder radius (mm).
+    pub cylinder_radius_mm: f64,
+    /// Cylinder length (mm).
+    pub cylinder_length_mm: f64,
+    /// A grasp succeeds when the gripper centre is within this of the cylinder centre (mm) ...
+    pub grasp_distance_mm: f64,
+    /// ... and the gripper is perpendicular to the axis within this (degrees).
+    pub grasp_angle_deg: f64,
+}
+
+fn joint(name: &str, min: f64, max: f64, f: f64) -> JointConfig {
+    JointConfig {
+        name: name.into(),
+        min_deg: min,
+        max_deg: max,
+        target_limit: 0.9,
+        hysteresis_width: 0.10,
+        hysteresis_asymmetry: 0.3,
+        natural_freq_hz: f,
+        damping_ratio: 0.3,
+        pressure_tau_s: 0.15,
+        servo_limit: 1.0,
+    }
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            dt_s: 0.001,
+            settle_s: 1.2,
+            shoulder_height_mm: 400.0,
+            upper_arm_mm: 420.0,
+            forearm_mm: 400.0,
+            hand_mm: 160.0,
+            light_offset_mm: 50.0,
+            link_radius_mm: 35.0,
+            pixel_noise_px: 0.3,
+            joints: vec![
+                joint("base", -15.0, 15.0, 1.6),
+                joint("shoulder", 0.0, 50.0, 1.8),
+                joint("elbow", -130.0, -50.0, 2.0),
+                joint("wrist A", -40.0, 40.0, 2.5),
+                joint("wrist B", -40.0, 40.0, 2.5),
+            ],
+            cameras: vec![
+                CameraConfig {
+                    resolution: [1024, 768],
+                    focal_px: 800.0,
+                    position_mm: [2100.0, -650.0, 650.0],
+                    look_at_mm: [550.0, 0.0, 450.0],
+                    distortion: [0.0, 0.0],
+                },
+                CameraConfig {
+                    resolution: [1024, 768],
+                    focal_px: 800.0,
+                    position_mm: [2100.0, 650.0, 650.0],
+                    look_at_mm: [550.0, 0.0, 450.0],
+                    distortion: [0.0, 0.0],
+                },
+            ],
+            drift: DriftConfig {
+                temperature: false,
+                temperature_amplitude_deg: 1.0,
+                temperature_period_s: 3600.0,
+                wear: false,
+                wear_gain_per_rad: 1e-4,
+                wear_offset_deg_per_rad: 0.01,
+            },
+            approach_mm: 60.0,
+            cylinder_radius_mm: 25.0,
+            cylinder_length_mm: 120.0,
+            grasp_distance_mm: 15.0,
+            grasp_angle_deg: 10.0,
+        }
+    }
+}
+
+impl SimConfig {
+    /// Parses and validates a TOML configuration.
+    pub fn from_toml_str(s: &str) -> Result<SimConfig, SimError> {
+        let cfg: SimConfig = toml::from_str(s).map_err(|e| SimError::Config(e.to_string()))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Reads, parses and validates a TOML file.
+    pub fn load(path: &Path) -> Result<SimConfig, SimError> {
+        let s = std::fs::read_to_string(path)
+            .map_err(|e| SimError::Config(format!("{}: {e}", path.display())))?;
+        Self::from_toml_str(&s).map_err(|e| match e {
+            SimError::Config(m) => SimError::Config(format!("{}: {m}", path.display())),
+            other => other,
+        })
+    }
+
+    /// The first camera's image size (the controller's initial weights span it).
+    pub fn image_size(&self) -> (u32, u32) {
+        self.cameras
+            .first()
+            .map(|c| (c.resolution[0], c.resolution[1]))
+            .unwrap_or((1024, 768))
+    }
+
+    /// Rejects configurations that cannot work, naming the key.
+    pub fn validate(&self) -> Result<(), SimError> {
+        let bad = |key: String, why: &str| Err(SimError::Config(format!("{key} {why}")));
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        if !pos(self.dt_s) || self.dt_s > 0.01 {
+            return bad("dt_s".into(), "must be in (0, 0.01] s");
+        }
+        if !(self.settle_s.is_finite() && self.settle_s >= self.dt_s) {
+            return bad("settle_s".into(), "must be at least dt_s");
+        }
+        for (k, v) in [
+            ("shoulder_height_mm", self.shoulder_height_mm),
+            ("upper_arm_mm", self.upper_arm_mm),
+            ("forearm_mm", self.forearm_mm),
+            ("hand_mm", self.hand_mm),
+            ("light_offset_mm", self.light_offset_mm),
+            ("cylinder_radius_mm", self.cylinder_radius_mm),
+            ("cylinder_length_mm", self.cylinder_length_mm),
+            ("grasp_distance_mm", self.grasp_distance_mm),
+            ("grasp_angle_deg", self.grasp_angle_deg),
+        ] {
+            if !pos(v) {
+                return bad(k.into(), "must be positive");
+            }
+        }
+        if !(self.pixel_noise_px.is_finite() && self.pixel_noise_px >= 0.0) {
+            return bad("pixel_noise_px".into(), "must be >= 0");
+        }
+        if self.joints.len() != 5 {
+            return bad("joints".into(), "must list exactly 5 joints");
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            let key = |f: &str| format!("joints[{i}].{f}");
+            if !(j.min_deg.is_finite() && j.max_deg.is_finite() && j.max_deg > j.min_deg) {
+                return bad(key("max_deg"), "must be greater than min_deg");
+            }
+            if !(j.hysteresis_width.is_finite() && j.hysteresis_width >= 0.0) {
+                return bad(key("hysteresis_width"), "must be >= 0");
+            }
+            if j.hysteresis_width > 0.5 {
+                return bad(key("hysteresis_width"), "must be at most 0.5 of the range");
+            }
+            if !(0.0..1.0).contains(&j.hysteresis_asymmetry) {
+                return bad(key("hysteresis_asymmetry"), "must be in [0, 1)");
+            }
+            if !pos(j.natural_freq_hz) || !pos(j.damping_ratio) || !pos(j.pressure_tau_s) {
+                return bad(
+                    key("natural_freq_hz / damping_ratio / pressure_tau_s"),
+                    "must be positive",
+                );
+            }
+            if 2.0 * std::f64::consts::PI * j.natural_freq_hz * self.dt_s > 0.2 {
+                return bad(
+                    key("natural_freq_hz"),
+                    "is too high for dt_s (unstable integration)",
+                );
+            }
+            if !(j.target_limit > 0.0 && j.target_limit <= 1.0)
+                || !(j.servo_limit > 0.0 && j.servo_limit <= 1.0)
+            {
+                return bad(key("target_limit / servo_limit"), "must be in (0, 1]");
+            }
+        }
+        if self.cameras.len() != 2 {
+            return bad("cameras".into(), "must list exactly 2 cameras");
+        }
+        for (i, c) in self.cameras.iter().enumerate() {
+            let key = |f: &str| format!("cameras[{i}].{f}");
+            if c.resolution[0] == 0 || c.resolution[1] == 0 {
+                return bad(key("resolution"), "must be positive");
+            }
+            if !pos(c.focal_px) {
+                return bad(key("focal_px"), "must be positive");
+            }
+            let d: f64 = (0..3)
+                .map(|k| (c.look_at_mm[k] - c.position_mm[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if !(d > 1.0) {
+                return bad(key("look_at_mm"), "must differ from position_mm");
+            }
+            let cam = super::camera::Camera::new(c);
+            // the camera must see the middle of the workspace
+            let mid = [
+                self.upper_arm_mm * 0.9,
+                0.0,
+                self.shoulder_height_mm + 0.2 * self.upper_arm_mm,
+            ];
+            if cam.project(&mid).is_none() {
+                return bad(
+                    key("look_at_mm"),
+                    "makes the camera see nothing of the workspace",
+                );
+            }
+        }
+        Ok(())
+    }
+}

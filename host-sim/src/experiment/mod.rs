@@ -1,0 +1,13 @@
+//! The experiment: training, evaluation and grasping runs over the bus, their reports and
+//! plots, and the `trn` command line.
+
+pub mod cli;
+pub mod compare;
+pub mod controller_loop;
+pub mod plot;
+pub mod report;
+pub mod run;
+pub mod session;
+pub mod summary;
+
+pub use report::Report;

@@ -1,0 +1,76 @@
+//! Host-in-the-loop over the in-process bus: the controller node in a thread, the simulator
+//! nodes and the runner in this one, every message through CAN frames.
+
+use trn_sim::experiment::cli::{Ablation, Common, Preset};
+use trn_sim::experiment::run::{run_plan, Plan};
+
+fn common(seed: u64, fd: bool) -> Common {
+    Common {
+        seed,
+        config: None,
+        bus: "inproc".into(),
+        fd,
+        preset: Preset::Project,
+        ablation: Ablation::None,
+        eval_targets: 5,
+        grasps: 3,
+        report: None,
+        plot: None,
+        candump: None,
+        quiet: true,
+        bus_timeout_s: 10.0,
+    }
+}
+
+const PLAN: Plan = Plan {
+    trials: 60,
+    eval_targets: 5,
+    grasps: 3,
+};
+
+#[test]
+fn same_seed_same_learning_curve_bit_for_bit() {
+    let a = run_plan(&common(7, false), PLAN, None, None, "test").unwrap();
+    let b = run_plan(&common(7, false), PLAN, None, None, "test").unwrap();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(a.stage1_error_px.len(), 60);
+    assert_eq!(bits(&a.stage1_error_px), bits(&b.stage1_error_px));
+    assert_eq!(bits(&a.stage2_error_px), bits(&b.stage2_error_px));
+    assert_eq!(a.fine_moves, b.fine_moves);
+    assert_eq!(a.final_error_px.to_bits(), b.final_error_px.to_bits());
+    let c = run_plan(&common(8, false), PLAN, None, None, "test").unwrap();
+    assert_ne!(bits(&a.stage1_error_px), bits(&c.stage1_error_px));
+}
+
+#[test]
+fn can_fd_carries_the_same_learning_curve_as_can_2_0() {
+    let a = run_plan(&common(3, false), PLAN, None, None, "test").unwrap();
+    let b = run_plan(&common(3, true), PLAN, None, None, "test").unwrap();
+    assert_eq!(a.stage1_error_px, b.stage1_error_px);
+    assert_eq!(a.stage2_error_px, b.stage2_error_px);
+}
+
+#[test]
+fn training_learns_and_grasps_are_scored() {
+    let r = run_plan(
+        &common(1, false),
+        Plan {
+            trials: 120,
+            eval_targets: 10,
+            grasps: 5,
+        },
+        None,
+        None,
+        "test",
+    )
+    .unwrap();
+    let early: f32 = r.combined_error_px[..20].iter().sum::<f32>() / 20.0;
+    let late: f32 = r.combined_error_px[100..].iter().sum::<f32>() / 20.0;
+    assert!(
+        late < early / 2.0,
+        "no learning: early {early} px, late {late} px"
+    );
+    assert_eq!(r.grasp.grasps, 5);
+    assert!(r.noise_floor_px > 0.0);
+    assert!(r.final_error_px.is_finite());
+}
