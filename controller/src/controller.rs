@@ -323,6 +323,10 @@ mod tests {
         let tables = crate::Stage1Net::TABLE_BYTES + crate::Stage2Net::TABLE_BYTES;
         assert_eq!(tables, 227_200);
         println!("Controller: {size} bytes, of which tables {tables}");
-        assert!(size - tables < 16 * 1024, "controller state {} bytes beyond the tables", size - tables);
+        assert!(
+            size - tables < 16 * 1024,
+            "controller state {} bytes beyond the tables",
+            size - tables
+        );
     }
 }

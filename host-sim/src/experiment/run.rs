@@ -174,10 +174,24 @@ pub fn run_plan(
     checkpoint_out: Option<&Path>,
     command: &str,
 ) -> Result<Report, AppError> {
+    let sim_cfg = load_sim_config(common.config.as_deref())?;
+    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
+    run_plan_with(common, plan, cfg, checkpoint_in, checkpoint_out, command)
+}
+
+/// [`run_plan`] with an explicit controller configuration (tuning, tests). Over
+/// SocketCAN the `controller-node` process builds its configuration from the preset.
+pub fn run_plan_with(
+    common: &Common,
+    plan: Plan,
+    cfg: Config,
+    checkpoint_in: Option<&Path>,
+    checkpoint_out: Option<&Path>,
+    command: &str,
+) -> Result<Report, AppError> {
     let started = Instant::now();
     let sim_cfg = load_sim_config(common.config.as_deref())?;
     let plant = Plant::new(&sim_cfg, common.seed)?;
-    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
     let mode = if common.fd {
         BusMode::Fd
     } else {

@@ -1,0 +1,77 @@
+//! Tuning harness: the project preset with overrides from environment variables, run over
+//! seeds on the in-process bus. The figures behind `Config::project_default` come from it:
+//! `SEEDS=3 TRIALS=300 JE=1 cargo run --release -p trn-sim --example tune`
+
+use trn_controller::config::TimeDecay;
+use trn_sim::experiment::cli::{Ablation, Common, Preset};
+use trn_sim::experiment::run::{controller_config, load_sim_config, run_plan_with, Plan};
+use trn_sim::experiment::summary::trials_to_reach;
+
+fn env(k: &str) -> Option<f32> {
+    std::env::var(k).ok().and_then(|s| s.parse().ok())
+}
+
+fn main() {
+    let sim = load_sim_config(None).expect("default config");
+    let preset = if std::env::var("PAPER").is_ok() { Preset::Paper } else { Preset::Project };
+    let mut cfg = controller_config(preset, Ablation::None, &sim);
+    for s in [&mut cfg.stage1, &mut cfg.stage2] {
+        if let Some(x) = env("JE") { s.j.eps = x; }
+        if let Some(x) = env("JL") { s.j.decay = TimeDecay::Exp { lambda: x }; }
+        if let Some(x) = env("PE") { s.p.eps = x; }
+        if let Some(x) = env("PL") { s.p.decay = TimeDecay::Exp { lambda: x }; }
+        if let Some(x) = env("WL") { s.w.decay = TimeDecay::Exp { lambda: x }; }
+        if let Some(x) = env("WE") { s.w.eps = x; }
+        if let Some(x) = env("SIGS") { s.sigma_start = x; }
+        if let Some(x) = env("SIGT") { s.sigma_tau = x; }
+        if let Some(x) = env("SIG") { s.sigma = x; }
+        if let Some(x) = env("TAU") { s.tolerance.tau = x; }
+        if let Some(x) = env("CAP") { s.max_fine_moves = x as u8; }
+        if let Some(x) = env("ALPHA") { s.alpha_range = x; }
+    }
+    if let Some(x) = env("TOL1") { cfg.stage1.tolerance.floor = x; }
+    if let Some(x) = env("TOL2") { cfg.stage2.tolerance.floor = x; }
+    if let Some(x) = env("MTOL1") { cfg.stage1.mature_tolerance = x; }
+    if let Some(x) = env("MTOL2") { cfg.stage2.mature_tolerance = x; }
+    if let Some(x) = env("NSUP") { cfg.supervised_steps = x as u32; }
+    let seeds = env("SEEDS").unwrap_or(3.0) as u64;
+    let trials = env("TRIALS").unwrap_or(300.0) as usize;
+    let (mut f, mut ft, mut nf, mut fm, mut g) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for seed in 1..=seeds {
+        let common = Common {
+            seed: seed + 100,
+            config: None,
+            bus: "inproc".into(),
+            fd: false,
+            preset,
+            ablation: Ablation::None,
+            eval_targets: 100,
+            grasps: 50,
+            report: None,
+            plot: None,
+            candump: None,
+            quiet: true,
+            bus_timeout_s: 10.0,
+        };
+        let r = run_plan_with(&common, Plan { trials, eval_targets: 100, grasps: 50 }, cfg, None, None, "tune").expect("run");
+        println!(
+            "seed {}: final {:.3} (true {:.3}, floor {:.3}) moves {:.2} s1<3@{:?} s2<3@{:?} grasp {:.0}% by-move1 {:?}",
+            common.seed,
+            r.final_error_px,
+            r.final_error_true_px,
+            r.noise_floor_px,
+            r.fine_moves_mean,
+            trials_to_reach(&r.stage1_error_px, 3.0),
+            trials_to_reach(&r.stage2_error_px, 3.0),
+            100.0 * r.grasp_success_rate,
+            r.eval.stage1_error_by_move_px.iter().take(5).map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>()
+        );
+        f += r.final_error_px;
+        ft += r.final_error_true_px;
+        nf += r.noise_floor_px;
+        fm += r.fine_moves_mean;
+        g += r.grasp_success_rate;
+    }
+    let n = seeds as f32;
+    println!("MEAN final {:.3} true {:.3} floor {:.3} ratio {:.3} moves {:.2} grasp {:.0}%", f / n, ft / n, nf / n, f / nf, fm / n, 100.0 * g / n);
+}
