@@ -13,27 +13,65 @@ fn env(k: &str) -> Option<f32> {
 
 fn main() {
     let sim = load_sim_config(None).expect("default config");
-    let preset = if std::env::var("PAPER").is_ok() { Preset::Paper } else { Preset::Project };
+    let preset = if std::env::var("PAPER").is_ok() {
+        Preset::Paper
+    } else {
+        Preset::Project
+    };
     let mut cfg = controller_config(preset, Ablation::None, &sim);
     for s in [&mut cfg.stage1, &mut cfg.stage2] {
-        if let Some(x) = env("JE") { s.j.eps = x; }
-        if let Some(x) = env("JL") { s.j.decay = TimeDecay::Exp { lambda: x }; }
-        if let Some(x) = env("PE") { s.p.eps = x; }
-        if let Some(x) = env("PL") { s.p.decay = TimeDecay::Exp { lambda: x }; }
-        if let Some(x) = env("WL") { s.w.decay = TimeDecay::Exp { lambda: x }; }
-        if let Some(x) = env("WE") { s.w.eps = x; }
-        if let Some(x) = env("SIGS") { s.sigma_start = x; }
-        if let Some(x) = env("SIGT") { s.sigma_tau = x; }
-        if let Some(x) = env("SIG") { s.sigma = x; }
-        if let Some(x) = env("TAU") { s.tolerance.tau = x; }
-        if let Some(x) = env("CAP") { s.max_fine_moves = x as u8; }
-        if let Some(x) = env("ALPHA") { s.alpha_range = x; }
+        if let Some(x) = env("JE") {
+            s.j.eps = x;
+        }
+        if let Some(x) = env("JL") {
+            s.j.decay = TimeDecay::Exp { lambda: x };
+        }
+        if let Some(x) = env("PE") {
+            s.p.eps = x;
+        }
+        if let Some(x) = env("PL") {
+            s.p.decay = TimeDecay::Exp { lambda: x };
+        }
+        if let Some(x) = env("WL") {
+            s.w.decay = TimeDecay::Exp { lambda: x };
+        }
+        if let Some(x) = env("WE") {
+            s.w.eps = x;
+        }
+        if let Some(x) = env("SIGS") {
+            s.sigma_start = x;
+        }
+        if let Some(x) = env("SIGT") {
+            s.sigma_tau = x;
+        }
+        if let Some(x) = env("SIG") {
+            s.sigma = x;
+        }
+        if let Some(x) = env("TAU") {
+            s.tolerance.tau = x;
+        }
+        if let Some(x) = env("CAP") {
+            s.max_fine_moves = x as u8;
+        }
+        if let Some(x) = env("ALPHA") {
+            s.alpha_range = x;
+        }
     }
-    if let Some(x) = env("TOL1") { cfg.stage1.tolerance.floor = x; }
-    if let Some(x) = env("TOL2") { cfg.stage2.tolerance.floor = x; }
-    if let Some(x) = env("MTOL1") { cfg.stage1.mature_tolerance = x; }
-    if let Some(x) = env("MTOL2") { cfg.stage2.mature_tolerance = x; }
-    if let Some(x) = env("NSUP") { cfg.supervised_steps = x as u32; }
+    if let Some(x) = env("TOL1") {
+        cfg.stage1.tolerance.floor = x;
+    }
+    if let Some(x) = env("TOL2") {
+        cfg.stage2.tolerance.floor = x;
+    }
+    if let Some(x) = env("MTOL1") {
+        cfg.stage1.mature_tolerance = x;
+    }
+    if let Some(x) = env("MTOL2") {
+        cfg.stage2.mature_tolerance = x;
+    }
+    if let Some(x) = env("NSUP") {
+        cfg.supervised_steps = x as u32;
+    }
     let seeds = env("SEEDS").unwrap_or(3.0) as u64;
     let trials = env("TRIALS").unwrap_or(300.0) as usize;
     let (mut f, mut ft, mut nf, mut fm, mut g) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -53,7 +91,19 @@ fn main() {
             quiet: true,
             bus_timeout_s: 10.0,
         };
-        let r = run_plan_with(&common, Plan { trials, eval_targets: 100, grasps: 50 }, cfg, None, None, "tune").expect("run");
+        let r = run_plan_with(
+            &common,
+            Plan {
+                trials,
+                eval_targets: 100,
+                grasps: 50,
+            },
+            cfg,
+            None,
+            None,
+            "tune",
+        )
+        .expect("run");
         println!(
             "seed {}: final {:.3} (true {:.3}, floor {:.3}) moves {:.2} s1<3@{:?} s2<3@{:?} grasp {:.0}% by-move1 {:?}",
             common.seed,
@@ -73,5 +123,13 @@ fn main() {
         g += r.grasp_success_rate;
     }
     let n = seeds as f32;
-    println!("MEAN final {:.3} true {:.3} floor {:.3} ratio {:.3} moves {:.2} grasp {:.0}%", f / n, ft / n, nf / n, f / nf, fm / n, 100.0 * g / n);
+    println!(
+        "MEAN final {:.3} true {:.3} floor {:.3} ratio {:.3} moves {:.2} grasp {:.0}%",
+        f / n,
+        ft / n,
+        nf / n,
+        f / nf,
+        fm / n,
+        100.0 * g / n
+    );
 }

@@ -110,3 +110,12 @@ fn camera_noise_floor() {
     // sigma 0.3 px per coordinate, both readings noisy: 0.42 px per coordinate difference
     assert!((m8 - 1.15).abs() < 0.1 && (m4 - 0.79).abs() < 0.08);
 }
+
+#[test]
+fn the_documented_toml_is_the_default() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/sim.toml");
+    assert_eq!(
+        SimConfig::load(std::path::Path::new(path)).unwrap(),
+        SimConfig::default()
+    );
+}

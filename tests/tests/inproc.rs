@@ -74,3 +74,26 @@ fn training_learns_and_grasps_are_scored() {
     assert!(r.noise_floor_px > 0.0);
     assert!(r.final_error_px.is_finite());
 }
+
+#[test]
+fn a_silent_bus_is_a_typed_error() {
+    use std::time::Duration;
+    use trn_protocol::bus::InProcBus;
+    use trn_protocol::BusMode;
+    use trn_sim::experiment::session::{RunError, Session, TrialKind};
+    use trn_sim::plant::{Plant, SimConfig};
+    // no controller on this bus
+    let bus = InProcBus::new(BusMode::Classic, 1);
+    let plant = Plant::new(&SimConfig::default(), 1).unwrap();
+    let mut s = Session::new(
+        bus.port(),
+        plant,
+        BusMode::Classic,
+        1,
+        Duration::from_millis(200),
+    );
+    let _other = bus.port();
+    let e = s.run_trial(TrialKind::Stage2 { learn: true }).unwrap_err();
+    assert!(matches!(e, RunError::BusSilent(_)), "{e}");
+    assert!(e.to_string().contains("bus silent"));
+}

@@ -259,9 +259,8 @@ impl SimConfig {
                     "is too high for dt_s (unstable integration)",
                 );
             }
-            if !(j.target_limit > 0.0 && j.target_limit <= 1.0)
-                || !(j.servo_limit > 0.0 && j.servo_limit <= 1.0)
-            {
+            let in_unit = |x: f64| x > 0.0 && x <= 1.0;
+            if !(in_unit(j.target_limit) && in_unit(j.servo_limit)) {
                 return bad(key("target_limit / servo_limit"), "must be in (0, 1]");
             }
         }
@@ -280,7 +279,7 @@ impl SimConfig {
                 .map(|k| (c.look_at_mm[k] - c.position_mm[k]).powi(2))
                 .sum::<f64>()
                 .sqrt();
-            if !(d > 1.0) {
+            if d.is_nan() || d <= 1.0 {
                 return bad(key("look_at_mm"), "must differ from position_mm");
             }
             let cam = super::camera::Camera::new(c);

@@ -163,7 +163,7 @@ impl Plant {
         Ok(Plant {
             joints: cfg.joints.iter().map(Joint::new).collect(),
             cameras: [Camera::new(&cfg.cameras[0]), Camera::new(&cfg.cameras[1])],
-            noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0xCA3E_4A5_0153),
+            noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0CA3_E4A5_0153),
             time_s: 0.0,
             cylinder: None,
             cfg: cfg.clone(),

@@ -31,7 +31,7 @@ pub fn run<P>(
     mut ctrl: Box<Controller>,
     mode: BusMode,
     stop: &AtomicBool,
-) -> Result<(Box<Controller>, LoopStats), trn_protocol::Error>
+) -> LoopResult
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
@@ -74,10 +74,13 @@ where
     Ok((ctrl, stats))
 }
 
+/// What the node's loop hands back: the controller with its learned tables, and counters.
+pub type LoopResult = Result<(Box<Controller>, LoopStats), trn_protocol::Error>;
+
 /// The controller node in a thread of this process.
 pub struct ControllerThread {
     stop: Arc<AtomicBool>,
-    join: Option<JoinHandle<Result<(Box<Controller>, LoopStats), trn_protocol::Error>>>,
+    join: Option<JoinHandle<LoopResult>>,
 }
 
 impl ControllerThread {
@@ -100,7 +103,7 @@ impl ControllerThread {
     }
 
     /// Waits for the node to end (after `ModeChange{Idle}`), returning the controller.
-    pub fn join(mut self) -> Result<(Box<Controller>, LoopStats), trn_protocol::Error> {
+    pub fn join(mut self) -> LoopResult {
         let join = self.join.take().expect("joined once");
         join.join()
             .unwrap_or(Err(trn_protocol::Error::Io(std::io::ErrorKind::BrokenPipe)))

@@ -1,0 +1,170 @@
+//! The `trn` command line: the main job end to end, checkpoints, and bad input (a clear
+//! message and a non-zero exit, never a panic).
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn trn(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trn"))
+        .args(args)
+        .output()
+        .expect("trn runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("trn-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn fails_with(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "expected failure, got success; stderr: {err}"
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "a clean error exit, not a panic (101): {err}"
+    );
+    assert!(err.contains(needle), "stderr lacks {needle:?}: {err}");
+}
+
+const SMALL: [&str; 7] = [
+    "--trials",
+    "20",
+    "--eval-targets",
+    "3",
+    "--grasps",
+    "2",
+    "--quiet",
+];
+
+#[test]
+fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
+    let (ckpt, report, plot) = (tmp("a.ckpt"), tmp("a.json"), tmp("a.png"));
+    let mut args = vec!["train"];
+    args.extend(SMALL);
+    let (c, r, p) = (
+        ckpt.to_str().unwrap(),
+        report.to_str().unwrap(),
+        plot.to_str().unwrap(),
+    );
+    args.extend(["--checkpoint-out", c, "--report", r, "--plot", p]);
+    let out = trn(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("paper (Sec. 8.4)") && stdout.contains("combined final error"),
+        "{stdout}"
+    );
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for key in [
+        "trials",
+        "seed",
+        "stage1_error_px",
+        "stage2_error_px",
+        "combined_error_px",
+        "fine_moves",
+        "final_error_px",
+        "final_error_true_px",
+        "noise_floor_px",
+        "fine_moves_mean",
+        "correction_cap_hits",
+        "grasp_success_rate",
+        "error_mm",
+        "error_deg",
+        "preset",
+        "wall_s",
+    ] {
+        assert!(json.get(key).is_some(), "report lacks {key}");
+    }
+    assert_eq!(json["stage1_error_px"].as_array().unwrap().len(), 20);
+    assert!(
+        std::fs::metadata(&plot).unwrap().len() > 10_000,
+        "a real PNG"
+    );
+    let out = trn(&[
+        "eval",
+        "--checkpoint-in",
+        c,
+        "--eval-targets",
+        "3",
+        "--quiet",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = trn(&["grasp", "--checkpoint-in", c, "--grasps", "2", "--quiet"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn missing_and_malformed_configs_are_clear_errors() {
+    let out = trn(&["train", "--config", "/nonexistent/sim.toml", "--quiet"]);
+    fails_with(&out, "/nonexistent/sim.toml");
+    let bad = tmp("bad.toml");
+    std::fs::write(&bad, "dt_s = \"fast\"\n").unwrap();
+    fails_with(
+        &trn(&["train", "--config", bad.to_str().unwrap(), "--quiet"]),
+        "dt_s",
+    );
+    std::fs::write(&bad, "pixel_noise_px = -1.0\n").unwrap();
+    fails_with(
+        &trn(&["train", "--config", bad.to_str().unwrap(), "--quiet"]),
+        "pixel_noise_px",
+    );
+}
+
+#[test]
+fn corrupt_and_foreign_checkpoints_are_rejected() {
+    let f = tmp("garbage.ckpt");
+    std::fs::write(&f, b"TRNC not really a checkpoint").unwrap();
+    fails_with(
+        &trn(&["eval", "--checkpoint-in", f.to_str().unwrap(), "--quiet"]),
+        "checkpoint",
+    );
+    std::fs::write(&f, vec![0u8; 1000]).unwrap();
+    fails_with(
+        &trn(&["eval", "--checkpoint-in", f.to_str().unwrap(), "--quiet"]),
+        "magic",
+    );
+    fails_with(
+        &trn(&["eval", "--checkpoint-in", "/nonexistent.ckpt", "--quiet"]),
+        "/nonexistent.ckpt",
+    );
+}
+
+#[test]
+fn a_bus_that_does_not_exist_fails_and_keeps_the_last_checkpoint() {
+    let ckpt = tmp("keep.ckpt");
+    std::fs::write(&ckpt, b"previous checkpoint").unwrap();
+    let c = ckpt.to_str().unwrap();
+    fails_with(
+        &trn(&[
+            "train",
+            "--bus",
+            "socketcan:nosuch0",
+            "--checkpoint-out",
+            c,
+            "--quiet",
+        ]),
+        "nosuch0",
+    );
+    fails_with(
+        &trn(&["train", "--bus", "carrier-pigeon", "--quiet"]),
+        "carrier-pigeon",
+    );
+    assert_eq!(std::fs::read(&ckpt).unwrap(), b"previous checkpoint");
+}
