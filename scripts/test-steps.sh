@@ -1,2 +1,11 @@
 # Steps of the test suite beyond fmt, clippy and cargo test; sourced by scripts/test.sh.
 # Each is a script of the project that installs what it needs.
+
+# The main job as a user runs it (README): train with defaults, print the paper's figures.
+main_job() {
+    cargo run --release --bin trn -- train --quiet --report "$LOG_DIR/train.json" --plot "$LOG_DIR/train.png"
+}
+
+step main-job main_job
+step dbc-interop bash protocol/tools/check_dbc.sh
+step fuzz-60s bash protocol/fuzz/run.sh 60

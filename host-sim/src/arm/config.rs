@@ -114,7 +114,9 @@ fn joint(name: &str, min: f64, max: f64, f: f64) -> JointConfig {
         name: name.into(),
         min_deg: min,
         max_deg: max,
-        target_limit: 0.9,
+        // a margin below the servo limit: a target reached from one side of the hysteresis
+        // loop must stay reachable from the other
+        target_limit: 0.8,
         hysteresis_width: 0.10,
         hysteresis_asymmetry: 0.3,
         natural_freq_hz: f,
@@ -137,11 +139,11 @@ impl Default for SimConfig {
             link_radius_mm: 35.0,
             pixel_noise_px: 0.3,
             joints: vec![
-                joint("base", -15.0, 15.0, 1.6),
-                joint("shoulder", 0.0, 50.0, 1.8),
-                joint("elbow", -130.0, -50.0, 2.0),
-                joint("wrist A", -40.0, 40.0, 2.5),
-                joint("wrist B", -40.0, 40.0, 2.5),
+                joint("base", -17.0, 17.0, 1.6),
+                joint("shoulder", -3.0, 53.0, 1.8),
+                joint("elbow", -135.0, -45.0, 2.0),
+                joint("wrist A", -45.0, 45.0, 2.5),
+                joint("wrist B", -45.0, 45.0, 2.5),
             ],
             cameras: vec![
                 CameraConfig {
