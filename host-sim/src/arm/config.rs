@@ -169,7 +169,7 @@ impl Default for SimConfig {
                 wear_gain_per_rad: 1e-4,
                 wear_offset_deg_per_rad: 0.01,
             },
-            approach_mm: 60.0,
+            approach_mm: 40.0,
             cylinder_radius_mm: 25.0,
             cylinder_length_mm: 120.0,
             grasp_distance_mm: 15.0,
