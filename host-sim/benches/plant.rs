@@ -10,14 +10,20 @@ fn moves(c: &mut Criterion) {
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);
     let mut g = c.benchmark_group("plant");
     g.throughput(Throughput::Elements(1));
-    g.bench_function("move: command 5 joints + settle 1.2 s + observe lights and centre", |b| {
-        b.iter(|| {
-            let p = plant.random_pressures(&mut rng);
-            plant.command(&p);
-            plant.settle();
-            (plant.observe_gripper_lights(), plant.observe_gripper_centre())
-        })
-    });
+    g.bench_function(
+        "move: command 5 joints + settle 1.2 s + observe lights and centre",
+        |b| {
+            b.iter(|| {
+                let p = plant.random_pressures(&mut rng);
+                plant.command(&p);
+                plant.settle();
+                (
+                    plant.observe_gripper_lights(),
+                    plant.observe_gripper_centre(),
+                )
+            })
+        },
+    );
     g.finish();
 }
 

@@ -24,9 +24,25 @@ fn train(c: &mut Criterion) {
     };
     let mut g = c.benchmark_group("train");
     g.sample_size(10);
-    g.bench_function("default train run (300 trials per network + eval + grasps, inproc bus)", |b| {
-        b.iter(|| run_plan(&common, Plan { trials: 300, eval_targets: 100, grasps: 50 }, None, None, "bench").unwrap())
-    });
+    g.bench_function(
+        "default train run (300 trials per network + eval + grasps, inproc bus)",
+        |b| {
+            b.iter(|| {
+                run_plan(
+                    &common,
+                    Plan {
+                        trials: 300,
+                        eval_targets: 100,
+                        grasps: 50,
+                    },
+                    None,
+                    None,
+                    "bench",
+                )
+                .unwrap()
+            })
+        },
+    );
     g.finish();
 }
 

@@ -9,6 +9,7 @@ pub mod camera;
 pub mod config;
 pub mod joint;
 pub mod kinematics;
+pub mod picture;
 
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;

@@ -99,6 +99,9 @@ pub struct Report {
     pub fine_moves_mean: f32,
     /// Trials (training and evaluation) that ended at the cap on fine moves.
     pub correction_cap_hits: usize,
+    /// Trials the controller aborted (a light out of view or hidden, a rejected input); their
+    /// errors are NaN in the curves and left out of the means.
+    pub aborted_trials: usize,
     /// Fraction of successful grasps.
     pub grasp_success_rate: f32,
     /// Mean gripper-to-cylinder-centre distance of the grasps (mm).
@@ -130,12 +133,17 @@ pub fn combined(stage1_px: f32, stage2_px: f32) -> f32 {
     (stage1_px * stage1_px + stage2_px * stage2_px).sqrt()
 }
 
-/// Mean of a slice (0 for an empty one).
+/// Mean of the finite values of a slice (0 when there are none). Aborted trials are NaN in
+/// the curves and counted in [`Report::aborted_trials`], not averaged.
 pub fn mean(x: &[f32]) -> f32 {
-    if x.is_empty() {
+    let (sum, n) = x
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 {
         0.0
     } else {
-        x.iter().sum::<f32>() / x.len() as f32
+        sum / n as f32
     }
 }
 
@@ -179,5 +187,6 @@ mod tests {
     fn smoothing() {
         assert_eq!(smooth(&[0.0, 3.0, 6.0], 3), vec![1.5, 3.0, 4.5]);
         assert_eq!(mean(&[]), 0.0);
+        assert_eq!(mean(&[1.0, f32::NAN, 3.0]), 2.0);
     }
 }

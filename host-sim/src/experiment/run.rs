@@ -470,6 +470,7 @@ where
         let r2 = s.run_trial(TrialKind::Stage2 { learn: true })?;
         let p = point(&r1, &r2);
         cap_hits += caps(&r1) + caps(&r2);
+        report.aborted_trials += aborted(&r1) + aborted(&r2);
         report.push_trial(&p);
         bar.inc(2);
         if i % 10 == 9 {
@@ -505,6 +506,7 @@ where
         let r2 = s.run_trial(TrialKind::Stage2 { learn: false })?;
         cap_hits += caps(&r1) + caps(&r2);
         eval.cap_hits += caps(&r1) + caps(&r2);
+        report.aborted_trials += aborted(&r1) + aborted(&r2);
         if let (Some(a), Some(b)) = (r1.stage1.as_ref(), r2.stage2.as_ref()) {
             e1.push(*a.errors_px.last().unwrap_or(&f32::NAN));
             t1.push(*a.errors_true_px.last().unwrap_or(&f32::NAN));
@@ -548,6 +550,7 @@ where
     for _ in 0..plan.grasps {
         let r = s.run_trial(TrialKind::Grasp { learn: false })?;
         cap_hits += caps(&r);
+        report.aborted_trials += aborted(&r);
         if let (Some(a), Some(b)) = (r.stage1.as_ref(), r.stage2.as_ref()) {
             if let (Some(x), Some(y)) = (a.errors_px.last(), b.errors_px.last()) {
                 gc.push(combined(*x, *y));
@@ -582,6 +585,10 @@ where
     bar.finish_and_clear();
     s.finish()?;
     Ok(())
+}
+
+fn aborted(r: &TrialRecord) -> usize {
+    r.aborted as usize
 }
 
 fn caps(r: &TrialRecord) -> usize {
