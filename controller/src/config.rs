@@ -177,6 +177,27 @@ pub struct Config {
     pub supervised_steps: u32,
 }
 
+/// The project's deviations from the paper for one stage (see [`Config::project_default`]);
+/// `tolerance` is the floor of (8.7) and the tolerance in mature operation (pixels).
+const fn project_stage(paper: StageConfig, tolerance: f32) -> StageConfig {
+    let wp_decay = TimeDecay::Exp { lambda: 300.0 };
+    let mut s = paper;
+    s.j = Rate {
+        eps: 1.0,
+        decay: TimeDecay::Exp { lambda: 1000.0 },
+        floor: 0.0,
+    };
+    s.w.decay = wp_decay;
+    s.p.decay = wp_decay;
+    s.sigma_start = 50.0;
+    s.sigma_tau = 100.0;
+    s.tolerance.tau = 40.0;
+    s.tolerance.floor = tolerance;
+    s.mature_tolerance = tolerance;
+    s.max_fine_moves = 8;
+    s
+}
+
 const PAPER_INIT: Init = Init {
     x: (0.0, 640.0),
     y: (0.0, 480.0),
@@ -277,35 +298,9 @@ impl Config {
     /// - Fine-move cap 8.
     pub const fn project_default() -> Config {
         let paper = Config::paper();
-        let mut stage1 = paper.stage1;
-        let j = Rate {
-            eps: 1.0,
-            decay: TimeDecay::Exp { lambda: 1000.0 },
-            floor: 0.0,
-        };
-        let wp_decay = TimeDecay::Exp { lambda: 300.0 };
-        stage1.j = j;
-        stage1.w.decay = wp_decay;
-        stage1.p.decay = wp_decay;
-        stage1.sigma_start = 50.0;
-        stage1.sigma_tau = 100.0;
-        stage1.tolerance.tau = 40.0;
-        stage1.tolerance.floor = 1.5;
-        stage1.mature_tolerance = 1.5;
-        stage1.max_fine_moves = 8;
-        let mut stage2 = paper.stage2;
-        stage2.j = j;
-        stage2.w.decay = wp_decay;
-        stage2.p.decay = wp_decay;
-        stage2.sigma_start = 50.0;
-        stage2.sigma_tau = 100.0;
-        stage2.tolerance.tau = 40.0;
-        stage2.tolerance.floor = 1.0;
-        stage2.mature_tolerance = 1.0;
-        stage2.max_fine_moves = 8;
         Config {
-            stage1,
-            stage2,
+            stage1: project_stage(paper.stage1, 1.5),
+            stage2: project_stage(paper.stage2, 1.0),
             supervised_steps: 50,
         }
     }

@@ -7,21 +7,7 @@ use trn_sim::experiment::cli::{Ablation, Common, Preset};
 use trn_sim::experiment::run::{run_plan, Plan};
 
 fn train(c: &mut Criterion) {
-    let common = Common {
-        seed: 1,
-        config: None,
-        bus: "inproc".into(),
-        fd: false,
-        preset: Preset::Project,
-        ablation: Ablation::None,
-        eval_targets: 100,
-        grasps: 50,
-        report: None,
-        plot: None,
-        candump: None,
-        quiet: true,
-        bus_timeout_s: 10.0,
-    };
+    let common = Common::inproc(1, Preset::Project, Ablation::None);
     let mut g = c.benchmark_group("train");
     g.sample_size(10);
     g.bench_function(

@@ -76,21 +76,7 @@ fn main() {
     let trials = env("TRIALS").unwrap_or(300.0) as usize;
     let (mut f, mut ft, mut nf, mut fm, mut g) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for seed in 1..=seeds {
-        let common = Common {
-            seed: seed + 100,
-            config: None,
-            bus: "inproc".into(),
-            fd: false,
-            preset,
-            ablation: Ablation::None,
-            eval_targets: 100,
-            grasps: 50,
-            report: None,
-            plot: None,
-            candump: None,
-            quiet: true,
-            bus_timeout_s: 10.0,
-        };
+        let common = Common::inproc(seed + 100, preset, Ablation::None);
         let r = run_plan_with(
             &common,
             Plan {

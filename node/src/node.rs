@@ -135,6 +135,14 @@ fn push(out: &mut Outbox, node: NodeId, msg: Message) {
     }
 }
 
+fn out_of_order(out: &mut Outbox, trial: u32) {
+    let report = ErrorReport {
+        code: codes::OUT_OF_ORDER,
+        detail: trial,
+    };
+    push(out, NodeId::Controller, report.into());
+}
+
 /// Frame-level errors seen by [`ControllerNode::on_frame`] (the frame is dropped; nothing
 /// else changes).
 pub type FrameError = trn_protocol::Error;
@@ -286,15 +294,7 @@ impl ControllerNode {
                                 ..g
                             })
                         }
-                        _ => push(
-                            out,
-                            NodeId::Controller,
-                            ErrorReport {
-                                code: codes::OUT_OF_ORDER,
-                                detail: t.trial,
-                            }
-                            .into(),
-                        ),
+                        _ => out_of_order(out, t.trial),
                     }
                     return;
                 }
@@ -324,15 +324,7 @@ impl ControllerNode {
                         }) if trial == t.trial => {
                             self.start(ctrl, trial, Task::Grasp { v, c: t.c, learn }, now_ms, out)
                         }
-                        _ => push(
-                            out,
-                            NodeId::Controller,
-                            ErrorReport {
-                                code: codes::OUT_OF_ORDER,
-                                detail: t.trial,
-                            }
-                            .into(),
-                        ),
+                        _ => out_of_order(out, t.trial),
                     }
                     return;
                 }

@@ -6,19 +6,10 @@ use trn_sim::experiment::run::{run_plan, Plan};
 
 fn common(seed: u64, fd: bool) -> Common {
     Common {
-        seed,
-        config: None,
-        bus: "inproc".into(),
         fd,
-        preset: Preset::Project,
-        ablation: Ablation::None,
         eval_targets: 5,
         grasps: 3,
-        report: None,
-        plot: None,
-        candump: None,
-        quiet: true,
-        bus_timeout_s: 10.0,
+        ..Common::inproc(seed, Preset::Project, Ablation::None)
     }
 }
 

@@ -393,29 +393,25 @@ impl Plant {
 
     /// The centre of the cylinder (the middle of its axis ab) in both cameras, with noise.
     pub fn observe_cylinder_centre(&mut self) -> Observation<2> {
-        match self.cylinder {
-            Some(c) => self.observe_points(&[c.centre], true),
-            None => Observation {
-                points: [PixelReading {
-                    x: f64::NAN,
-                    y: f64::NAN,
-                    status: PointStatus::NotDetected,
-                }; 2],
-            },
-        }
+        self.observe_cylinder(true)
     }
 
     /// The same without noise.
     pub fn observe_cylinder_centre_true(&mut self) -> Observation<2> {
+        self.observe_cylinder(false)
+    }
+
+    fn observe_cylinder(&mut self, noisy: bool) -> Observation<2> {
         match self.cylinder {
-            Some(c) => self.observe_points(&[c.centre], false),
-            None => Observation {
-                points: [PixelReading {
+            Some(c) => self.observe_points(&[c.centre], noisy),
+            None => {
+                let none = PixelReading {
                     x: f64::NAN,
                     y: f64::NAN,
                     status: PointStatus::NotDetected,
-                }; 2],
-            },
+                };
+                Observation { points: [none; 2] }
+            }
         }
     }
 

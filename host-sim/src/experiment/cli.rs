@@ -95,6 +95,27 @@ pub struct Common {
     pub bus_timeout_s: f64,
 }
 
+impl Common {
+    /// Options for a programmatic run: in-process bus, no outputs, no progress bar.
+    pub fn inproc(seed: u64, preset: Preset, ablation: Ablation) -> Common {
+        Common {
+            seed,
+            config: None,
+            bus: "inproc".into(),
+            fd: false,
+            preset,
+            ablation,
+            eval_targets: 100,
+            grasps: 50,
+            report: None,
+            plot: None,
+            candump: None,
+            quiet: true,
+            bus_timeout_s: 10.0,
+        }
+    }
+}
+
 /// `trn train`.
 #[derive(Debug, Args, Clone)]
 pub struct TrainArgs {

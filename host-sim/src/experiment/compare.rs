@@ -68,21 +68,7 @@ pub fn run(a: &CompareArgs) -> Result<(), AppError> {
             wall_s: vec![],
         };
         for seed in 1..=a.seeds {
-            let common = Common {
-                seed,
-                config: None,
-                bus: "inproc".into(),
-                fd: false,
-                preset,
-                ablation,
-                eval_targets: 100,
-                grasps: 50,
-                report: None,
-                plot: None,
-                candump: None,
-                quiet: true,
-                bus_timeout_s: 10.0,
-            };
+            let common = Common::inproc(seed, preset, ablation);
             let plan = Plan {
                 trials: a.trials,
                 eval_targets: 100,
