@@ -119,3 +119,46 @@ fn the_documented_toml_is_the_default() {
         SimConfig::default()
     );
 }
+
+#[test]
+fn drift_and_wear_are_off_by_default_and_move_the_arm_when_on() {
+    let angle_after = |cfg: &SimConfig, seconds: f64| {
+        let mut plant = Plant::new(cfg, 1).unwrap();
+        plant.command(&[0.3; 5]);
+        plant.advance(seconds);
+        plant.joint_angles()[1]
+    };
+    let off = SimConfig::default();
+    assert!(
+        (angle_after(&off, 30.0) - angle_after(&off, 900.0)).abs() < 1e-7,
+        "no drift by default"
+    );
+    let mut on = SimConfig::default();
+    on.drift.temperature = true;
+    on.drift.temperature_amplitude_deg = 2.0;
+    on.drift.temperature_period_s = 3600.0;
+    let moved = (angle_after(&on, 900.0) - angle_after(&on, 30.0)).to_degrees();
+    let sin = |t: f64| (2.0 * std::f64::consts::PI * t / 3600.0).sin();
+    assert!(
+        (moved - 2.0 * (sin(900.0) - sin(30.0))).abs() < 0.1,
+        "{moved}"
+    );
+    // wear: cumulative travel lowers the gain and shifts the offset
+    let mut worn = SimConfig::default();
+    worn.drift.wear = true;
+    worn.drift.wear_offset_deg_per_rad = 1.0;
+    let mut plant = Plant::new(&worn, 1).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    plant.command(&[0.3; 5]);
+    plant.settle();
+    let before = plant.joint_angles()[1];
+    for _ in 0..30 {
+        plant.move_to_random_joints(&mut rng, 5);
+    }
+    plant.command(&[0.3; 5]);
+    plant.settle();
+    assert!(
+        (plant.joint_angles()[1] - before).abs() > 0.01,
+        "wear moved the joint"
+    );
+}
