@@ -52,9 +52,10 @@ pub fn run(a: &CompareArgs) -> Result<(), AppError> {
     ];
     let mut rows = vec![];
     for (preset, ablation) in configs {
-        let name = format!("{preset:?} {ablation:?}")
-            .to_lowercase()
-            .replace(" none", "");
+        let name = match ablation {
+            Ablation::None => format!("{preset:?}").to_lowercase(),
+            a => format!("{preset:?} {a:?}").to_lowercase(),
+        };
         let mut row = Row {
             name,
             seeds: vec![],
