@@ -79,7 +79,11 @@ fn main() {
     let trials = env("TRIALS").unwrap_or(300.0) as usize;
     let (mut f, mut ft, mut nf, mut fm, mut g) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for seed in 1..=seeds {
-        let common = Common::inproc(seed + env("SEED0").unwrap_or(100.0) as u64, preset, Ablation::None);
+        let common = Common::inproc(
+            seed + env("SEED0").unwrap_or(100.0) as u64,
+            preset,
+            Ablation::None,
+        );
         let r = run_plan_with(
             &common,
             Plan {

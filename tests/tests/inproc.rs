@@ -88,3 +88,55 @@ fn a_silent_bus_is_a_typed_error() {
     assert!(matches!(e, RunError::BusSilent(_)), "{e}");
     assert!(e.to_string().contains("bus silent"));
 }
+
+#[test]
+fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
+    use embedded_can::blocking::Can;
+    use std::time::Duration;
+    use trn_protocol::bus::{InProcBus, ReceiveTimeout};
+    use trn_protocol::{
+        BusMode, Encoder, Envelope, Heartbeat, Message, NodeId, NodeState, Reassembler,
+        SafeStateAction, SafeStateReason,
+    };
+    use trn_sim::experiment::session::{RunError, Session, TrialKind};
+    use trn_sim::plant::{Plant, SimConfig};
+    let bus = InProcBus::new(BusMode::Classic, 1);
+    let plant = Plant::new(&SimConfig::default(), 1).unwrap();
+    let mut s = Session::new(
+        bus.port(),
+        plant,
+        BusMode::Classic,
+        1,
+        Duration::from_millis(1500),
+    );
+    // a controller that sends one heartbeat, then dies
+    let mut ctrl = bus.port();
+    let hb = Envelope::new(
+        NodeId::Controller,
+        Heartbeat {
+            counter: 0,
+            state: NodeState::Operational,
+        }
+        .into(),
+    );
+    for f in &Encoder::new(BusMode::Classic).encode(&hb).unwrap() {
+        ctrl.transmit(f).unwrap();
+    }
+    let e = s.run_trial(TrialKind::Stage2 { learn: true }).unwrap_err();
+    assert!(matches!(e, RunError::BusSilent(_)));
+    assert!((0..5).all(|j| s.servo_safe(j)));
+    let mut rx: Reassembler = Reassembler::new(100);
+    let mut announced = vec![];
+    while let Some(f) = ctrl.receive_timeout(Duration::from_millis(10)).unwrap() {
+        if let Ok(Some(Envelope {
+            node: NodeId::Servo(j),
+            msg: Message::SafeStateEntered(m),
+        })) = rx.push(&f, 0)
+        {
+            assert_eq!(m.reason, SafeStateReason::HeartbeatLost);
+            assert_eq!(m.action, SafeStateAction::HoldLast);
+            announced.push(j.index());
+        }
+    }
+    assert_eq!(announced, vec![0, 1, 2, 3, 4], "each drive says so once");
+}

@@ -10,6 +10,7 @@ use embedded_can::blocking::Can;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use trn_node::codes;
 use trn_protocol::bus::ReceiveTimeout;
+use trn_protocol::heartbeat::{HeartbeatConfig, HeartbeatEvent, HeartbeatMonitor, VENT_RAW};
 use trn_protocol::{
     BusMode, CanFrame, CaptureKind, Encoder, Envelope, GraspRequest, GripperStatus, Message, Mode,
     ModeChange, NodeId, Observation, PixelPoint, PointStatus, Reassembler, SafeState, ServoStatus,
@@ -130,6 +131,10 @@ pub struct Session<P> {
     trial: u32,
     gripper_closed: bool,
     stats: SessionStats,
+    /// Each servo drive supervises the controller's heartbeat.
+    monitors: [HeartbeatMonitor; 5],
+    /// Last raw command each drive applied (held in the safe state).
+    last_raw: [u16; 5],
 }
 
 fn dist<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
@@ -178,6 +183,58 @@ where
             trial: 0,
             gripper_closed: false,
             stats: SessionStats::default(),
+            monitors: core::array::from_fn(|_| {
+                HeartbeatMonitor::new(HeartbeatConfig::default(), 0)
+            }),
+            last_raw: [2048; 5],
+        }
+    }
+
+    /// Sets the servo drives' heartbeat supervision (timeout, hold or vent).
+    pub fn set_heartbeat(&mut self, cfg: HeartbeatConfig) {
+        let now = self.now_ms();
+        self.monitors = core::array::from_fn(|_| HeartbeatMonitor::new(cfg, now));
+    }
+
+    /// True when servo drive `joint` is in its safe state.
+    pub fn servo_safe(&self, joint: usize) -> bool {
+        self.monitors.get(joint).is_some_and(|m| m.is_safe())
+    }
+
+    /// The servo drives' supervision: a drive that lost the controller's heartbeat holds its
+    /// last pressure or vents, as configured, and says so on the bus once.
+    fn supervise(&mut self, now: u32) -> Result<(), RunError> {
+        for j in 0..5 {
+            if let Some(HeartbeatEvent::EnteredSafeState(action)) = self.monitors[j].poll(now) {
+                if action == trn_protocol::SafeStateAction::Vent {
+                    self.plant.servo_command_raw(j, VENT_RAW)?;
+                }
+                let msg = self.monitors[j].safe_state_message(self.last_raw[j]);
+                self.last_raw[j] = self.monitors[j].held_raw(self.last_raw[j]);
+                let node = NodeId::servo(j as u8)?;
+                self.send(node, msg)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Waits for the next frame, supervising heartbeats meanwhile; `BusSilent` after the
+    /// configured silence.
+    fn next_frame(&mut self) -> Result<CanFrame, RunError> {
+        let since = Instant::now();
+        loop {
+            let wait = self
+                .silence
+                .saturating_sub(since.elapsed())
+                .min(Duration::from_millis(50));
+            let frame = self.port.receive_timeout(wait)?;
+            self.supervise(self.now_ms())?;
+            if let Some(f) = frame {
+                return Ok(f);
+            }
+            if since.elapsed() >= self.silence {
+                return Err(RunError::BusSilent(self.silence.as_secs_f64()));
+            }
         }
     }
 
@@ -371,11 +428,10 @@ where
         let mut reports = 0;
         let mut stage1_pose_done = false;
         loop {
-            let Some(frame) = self.port.receive_timeout(self.silence)? else {
-                return Err(RunError::BusSilent(self.silence.as_secs_f64()));
-            };
+            let frame = self.next_frame()?;
             self.stats.frames_in += 1;
-            let env = match self.rx.push(&frame, self.now_ms()) {
+            let now = self.now_ms();
+            let env = match self.rx.push(&frame, now) {
                 Ok(Some(env)) => env,
                 Ok(None) => continue,
                 Err(_) => {
@@ -383,14 +439,31 @@ where
                     continue;
                 }
             };
+            for m in &mut self.monitors {
+                m.observe(&env, NodeId::Controller, now);
+            }
             match (env.node, env.msg) {
                 (NodeId::Servo(j), Message::PressureCommand(c)) => {
-                    let fb = self.plant.servo_command_raw(j.index() as usize, c.raw)?;
+                    let i = j.index() as usize;
+                    let safe_state =
+                        match (self.monitors[i].is_safe(), self.monitors[i].config().action) {
+                            (false, _) => SafeState::Normal,
+                            (true, trn_protocol::SafeStateAction::HoldLast) => SafeState::HoldLast,
+                            (true, trn_protocol::SafeStateAction::Vent) => SafeState::Vented,
+                        };
+                    // in the safe state a drive ignores commands until heartbeats resume
+                    let raw = if safe_state == SafeState::Normal {
+                        c.raw
+                    } else {
+                        self.last_raw[i]
+                    };
+                    self.last_raw[i] = raw;
+                    let fb = self.plant.servo_command_raw(i, raw)?;
                     let status = ServoStatus {
                         seq: c.seq,
                         raw: fb.raw_pressure,
                         saturated: fb.saturated,
-                        safe_state: SafeState::Normal,
+                        safe_state,
                     };
                     self.send(NodeId::Servo(j), status.into())?;
                 }
