@@ -9,3 +9,5 @@ main_job() {
 step main-job main_job
 step dbc-interop bash protocol/tools/check_dbc.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
+# Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan (issue 6).
+step vcan-hil bash scripts/vcan/run.sh

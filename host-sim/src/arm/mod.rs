@@ -9,6 +9,7 @@ pub mod camera;
 pub mod config;
 pub mod joint;
 pub mod kinematics;
+#[cfg(feature = "plot")]
 pub mod picture;
 
 use rand_core::{RngCore, SeedableRng};

@@ -4,6 +4,7 @@
 pub mod cli;
 pub mod compare;
 pub mod controller_loop;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;
 pub mod run;

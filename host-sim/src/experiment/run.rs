@@ -50,8 +50,12 @@ pub enum AppError {
         msg: String,
     },
     /// Plotting.
+    #[cfg(feature = "plot")]
     #[error(transparent)]
     Plot(#[from] super::plot::PlotError),
+    /// `--plot` in a build without the `plot` feature.
+    #[error("this build has no plotting (feature `plot`): drop --plot")]
+    NoPlot,
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> AppError + '_ {
@@ -265,7 +269,13 @@ pub fn run_plan_with(
         fs::write(p, json).map_err(io(p))?;
     }
     if let Some(p) = &common.plot {
+        #[cfg(feature = "plot")]
         super::plot::learning_curves(&report, p)?;
+        #[cfg(not(feature = "plot"))]
+        {
+            let _ = p;
+            return Err(AppError::NoPlot);
+        }
     }
     Ok(report)
 }
