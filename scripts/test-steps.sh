@@ -11,3 +11,6 @@ step dbc-interop bash protocol/tools/check_dbc.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
 # Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan (issue 6).
 step vcan-hil bash scripts/vcan/run.sh
+# Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.
+step cross-build bash scripts/cross/check-controller.sh
+step firmware-budget bash scripts/cross/budget.sh

@@ -324,6 +324,55 @@ impl Config {
     }
 }
 
+const ZERO_RATE: Rate = Rate {
+    eps: 0.0,
+    decay: TimeDecay::Exp { lambda: 0.0 },
+    floor: 0.0,
+};
+const ZERO_STAGE: StageConfig = StageConfig {
+    alpha_range: 0.0,
+    fine_ranks: 0,
+    sigma: 0.0,
+    sigma_start: 0.0,
+    sigma_tau: 0.0,
+    w: ZERO_RATE,
+    p: ZERO_RATE,
+    j: ZERO_RATE,
+    tolerance: Tolerance {
+        base: 0.0,
+        amplitude: 0.0,
+        tau: 0.0,
+        floor: 0.0,
+    },
+    mature_tolerance: 0.0,
+    max_fine_moves: 0,
+    min_fine_moves_learning: 0,
+    min_dv: 0.0,
+    pressure_limit: 0.0,
+    input_min: 0.0,
+    input_max: 0.0,
+    max_target_distance: 0.0,
+    init: Init {
+        x: (0.0, 0.0),
+        y: (0.0, 0.0),
+        pressure: 0.0,
+        jacobian: 0.0,
+    },
+};
+
+impl Config {
+    /// All fields zero: a placeholder for a controller in `.bss`
+    /// ([`crate::Controller::new_zeroed`]), replaced with [`crate::Controller::set_config`]
+    /// before use. Not a usable configuration.
+    pub const fn zeroed() -> Config {
+        Config {
+            stage1: ZERO_STAGE,
+            stage2: ZERO_STAGE,
+            supervised_steps: 0,
+        }
+    }
+}
+
 impl Default for Config {
     fn default() -> Self {
         Config::project_default()

@@ -95,11 +95,16 @@ pub enum Command {
     Done(Outcome),
 }
 
+/// The task in progress. Fieldless, so that `Idle` is the zero byte of a zeroed controller;
+/// a grasp's stage-2 target waits in `Controller::grasp_c`.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(u8)]
 enum Running {
-    Idle,
-    Stage1 { then_c: Option<[f32; 4]> },
-    Stage2,
+    Idle = 0,
+    Stage1 = 1,
+    /// Stage 1 of a grasp: stage 2 follows.
+    GraspStage1 = 2,
+    Stage2 = 3,
 }
 
 /// Both networks, the configuration and the task in progress.
@@ -129,7 +134,12 @@ pub struct Controller {
     stage1: Stage1,
     stage2: Stage2,
     running: Running,
-    outcome: Outcome,
+    /// The stage-2 target of the grasp in progress.
+    grasp_c: [f32; 4],
+    /// Stage 1's result while stage 2 of a grasp runs (valid when `stage1_done`). Kept as a
+    /// plain value, not an `Option`, so that a zeroed controller is all zero bytes.
+    stage1_outcome: StageOutcome,
+    stage1_done: bool,
     /// Last pressures commanded to each joint.
     held: [f32; JOINTS],
 }
@@ -143,13 +153,19 @@ impl Controller {
             stage1: Stage::new(cfg.stage1),
             stage2: Stage::new(cfg.stage2),
             running: Running::Idle,
-            outcome: Outcome {
-                stage1: None,
-                stage2: None,
-                close_gripper: false,
-            },
+            grasp_c: [0.0; 4],
+            stage1_outcome: crate::stage::ZERO_OUTCOME,
+            stage1_done: false,
             held: [0.0; JOINTS],
         }
+    }
+
+    /// A controller whose every byte is zero, configuration included: firmware declares it
+    /// as a `static`, which the linker then places in `.bss` (zeroed at boot, no flash image
+    /// of 240 KB), and calls [`Controller::set_config`] and [`Controller::init_random`] at
+    /// start-up. `budget.sh` checks the section sizes of the real link.
+    pub const fn new_zeroed() -> Self {
+        Self::new(Config::zeroed())
     }
 
     /// Random initial tables for both networks from `seed`.
@@ -214,11 +230,7 @@ impl Controller {
         if self.busy() {
             return Err(Error::Busy);
         }
-        self.outcome = Outcome {
-            stage1: None,
-            stage2: None,
-            close_gripper: false,
-        };
+        self.stage1_done = false;
         match task {
             Task::Stage1 {
                 v,
@@ -226,7 +238,7 @@ impl Controller {
                 learn,
             } => {
                 let p = self.stage1.begin(&v, supervised.as_ref(), learn)?;
-                self.running = Running::Stage1 { then_c: None };
+                self.running = Running::Stage1;
                 Ok(self.move1(p))
             }
             Task::Stage2 { c, learn } => self.begin2(&c, learn),
@@ -234,7 +246,8 @@ impl Controller {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
                 self.stage2.check_input(&c)?;
                 let p = self.stage1.begin(&v, None, learn)?;
-                self.running = Running::Stage1 { then_c: Some(c) };
+                self.grasp_c = c;
+                self.running = Running::GraspStage1;
                 Ok(self.move1(p))
             }
         }
@@ -268,13 +281,19 @@ impl Controller {
     pub fn observe(&mut self, obs: Observation) -> Result<Command> {
         match (self.running, obs) {
             (Running::Idle, _) => Err(Error::UnexpectedObservation),
-            (Running::Stage1 { then_c }, Observation::Lights(v)) => {
+            (Running::Stage1 | Running::GraspStage1, Observation::Lights(v)) => {
+                let then_c = if self.running == Running::GraspStage1 {
+                    Some(self.grasp_c)
+                } else {
+                    None
+                };
                 match self.stage1.observe(&v)? {
                     StageStep::Move(p) => Ok(self.move1(p)),
                     StageStep::Done(o) => {
-                        self.outcome.stage1 = Some(o);
+                        self.stage1_outcome = o;
+                        self.stage1_done = true;
                         match then_c {
-                            None => Ok(self.done()),
+                            None => Ok(self.done(None)),
                             Some(c) => {
                                 let learn = o.learned;
                                 match self.begin2(&c, learn) {
@@ -291,19 +310,24 @@ impl Controller {
             }
             (Running::Stage2, Observation::Centre(c)) => match self.stage2.observe(&c)? {
                 StageStep::Move(p) => Ok(self.move2(p)),
-                StageStep::Done(o) => {
-                    self.outcome.stage2 = Some(o);
-                    self.outcome.close_gripper = self.outcome.stage1.is_some();
-                    Ok(self.done())
-                }
+                StageStep::Done(o) => Ok(self.done(Some(o))),
             },
             _ => Err(Error::WrongObservationKind),
         }
     }
 
-    fn done(&mut self) -> Command {
+    fn done(&mut self, stage2: Option<StageOutcome>) -> Command {
         self.running = Running::Idle;
-        Command::Done(self.outcome)
+        let stage1 = if self.stage1_done {
+            Some(self.stage1_outcome)
+        } else {
+            None
+        };
+        Command::Done(Outcome {
+            stage1,
+            stage2,
+            close_gripper: stage1.is_some() && stage2.is_some(),
+        })
     }
 
     pub(crate) fn parts_mut(&mut self) -> (&mut Stage1, &mut Stage2) {

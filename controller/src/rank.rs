@@ -5,12 +5,13 @@ use core::cmp::Ordering;
 /// How the ranking is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RankMode {
-    /// Sort all `N` distances (the reference).
-    FullSort,
     /// Select the `K` nearest with a linear-time selection, then sort those `K` only.
     /// Gives exactly the first `K` ranks of [`RankMode::FullSort`] (ties broken by index in
-    /// both), at a fraction of the cost.
+    /// both), at a fraction of the cost. (The first variant, so that a zeroed controller
+    /// uses it: see `Controller::new_zeroed`.)
     PartialSelect,
+    /// Sort all `N` distances (the reference).
+    FullSort,
 }
 
 /// The `K` closest neurons to an input, closest first: `index(r)` is `k(r)` of (8.3).

@@ -49,6 +49,20 @@ pub struct StageOutcome {
     pub trace: [f32; TRACE_LEN],
 }
 
+/// An all-zero outcome (the state before any trial).
+pub const ZERO_OUTCOME: StageOutcome = StageOutcome {
+    t: 0,
+    learned: false,
+    supervised: false,
+    coarse_error: 0.0,
+    final_error: 0.0,
+    fine_moves: 0,
+    cap_hit: false,
+    tolerance: 0.0,
+    skipped_updates: 0,
+    trace: [0.0; TRACE_LEN],
+};
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Idle,

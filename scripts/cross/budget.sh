@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Builds the firmware for thumbv7em-none-eabihf, measures its sections, runs its benchmark in
+# QEMU (mps2-an386, -icount shift=0) and fails when a budget is exceeded:
+#   static RAM (.data + .bss + .uninit) <= 240 KiB, flash (.vector_table + .text + .rodata +
+#   .data) <= 128 KiB, stack high-water mark <= 8 KiB, stage-1 learning step <= 400,000
+#   executed instructions (the largest of the benchmark's steps; QEMU models no pipeline, so
+#   instructions are a proxy for cycles). The thumbv6m-none-eabi build is reported beside it.
+set -euo pipefail
+source "$(dirname "$0")/env.sh"
+bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
+cd "$root/firmware"
+$CARGO build --quiet --release --target thumbv7em-none-eabihf
+elf=target/thumbv7em-none-eabihf/release/trn-firmware
+sections() {
+    arm-none-eabi-size -A "$1" | awk '
+        $1==".data"{d=$2} $1==".bss"{b=$2} $1==".uninit"{u=$2}
+        $1==".vector_table"{v=$2} $1==".text"{t=$2} $1==".rodata"{r=$2}
+        END{print d+b+u, v+t+r+d}'
+}
+read -r ram flash < <(sections "$elf")
+out=$(timeout 120 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
+    -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf")
+echo "$out"
+control=$(echo "$out" | sed -n 's/^stage1 control step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
+learn=$(echo "$out" | sed -n 's/^stage1 learning step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
+stack=$(echo "$out" | sed -n 's/^stack high-water mark: \([0-9]*\) bytes/\1/p')
+[ -n "$control" ] && [ -n "$learn" ] && [ -n "$stack" ] || { echo "budget: FAIL: the benchmark printed no figures" >&2; exit 1; }
+read -r learn_mean learn_max <<< "$learn"
+read -r control_mean control_max <<< "$control"
+
+# thumbv6m (Cortex-M0, no FPU): built and measured, not run (QEMU's M0 boards have 16 KiB RAM)
+$CARGO build --quiet --release --target thumbv6m-none-eabi
+read -r ram6 flash6 < <(sections target/thumbv6m-none-eabi/release/trn-firmware)
+
+fail=0
+check() { # name value limit unit
+    if [ "$2" -le "$3" ]; then verdict=ok; else verdict=FAIL; fail=1; fi
+    printf '%-58s %10s %10s %-12s %s\n' "$1" "$2" "$3" "$4" "$verdict"
+}
+echo
+printf '%-58s %10s %10s %-12s %s\n' "budget (thumbv7em-none-eabihf, firmware/)" "measured" "limit" "unit" ""
+check "static RAM: both networks + controller state (.data+.bss)" "$ram" 245760 bytes
+check "flash (.vector_table+.text+.rodata+.data)" "$flash" 131072 bytes
+check "stack high-water mark" "$stack" 8192 bytes
+check "stage-1 learning step, max (coarse + 2 fine + updates)" "$learn_max" 400000 instructions
+printf '%-58s %10s\n' "stage-1 learning step, mean" "$learn_mean"
+printf '%-58s %10s\n' "stage-1 control step (rank + coarse), mean / max" "$control_mean / $control_max"
+printf '%-58s %10s\n' "thumbv6m-none-eabi: static RAM / flash (bytes, not run)" "$ram6 / $flash6"
+[ $fail -eq 0 ] || { echo "budget: FAIL" >&2; exit 1; }
+echo "budget: all within limits"
