@@ -14,3 +14,5 @@ step vcan-hil bash scripts/vcan/run.sh
 # Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.
 step cross-build bash scripts/cross/check-controller.sh
 step firmware-budget bash scripts/cross/budget.sh
+# Processor-in-the-loop: the simulator trains the firmware in QEMU; curves match the host build.
+step firmware-pil bash scripts/cross/pil.sh 30

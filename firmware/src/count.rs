@@ -52,6 +52,39 @@ impl Counter {
     }
 }
 
+/// Milliseconds from SysTick (25 MHz on the MPS2 boards); read often enough that the 24-bit
+/// counter never wraps twice between reads.
+pub struct Clock {
+    syst: SYST,
+    last: u32,
+    ticks: u64,
+}
+
+/// SysTick ticks per millisecond (the MPS2 system clock, 25 MHz).
+const TICKS_PER_MS: u64 = 25_000;
+
+impl Clock {
+    /// Takes SysTick (once).
+    pub fn new() -> Clock {
+        let Some(p) = cortex_m::Peripherals::take() else { crate::fail("peripherals taken twice") };
+        let mut syst = p.SYST;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(RELOAD);
+        syst.clear_current();
+        syst.enable_counter();
+        Clock { syst, last: SYST::get_current(), ticks: 0 }
+    }
+
+    /// Milliseconds since start (wrapping `u32`, as the node expects).
+    pub fn now_ms(&mut self) -> u32 {
+        let _ = &self.syst;
+        let cur = SYST::get_current();
+        self.ticks += (self.last.wrapping_sub(cur) & RELOAD) as u64;
+        self.last = cur;
+        (self.ticks / TICKS_PER_MS) as u32
+    }
+}
+
 /// Exactly two instructions per iteration (`subs`, `bne`).
 #[inline(never)]
 fn calibration_loop(n: u32) {

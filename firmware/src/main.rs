@@ -10,6 +10,10 @@
 #![no_main]
 
 mod count;
+#[cfg(feature = "pil")]
+mod pil;
+#[cfg(feature = "pil")]
+mod uart;
 
 use core::panic::PanicInfo;
 use cortex_m_rt::entry;
@@ -49,10 +53,34 @@ fn main() -> ! {
     // and this reference is taken once.
     #[allow(unsafe_code)]
     let ctrl: &'static mut Controller = unsafe { &mut *core::ptr::addr_of_mut!(CONTROLLER) };
-    if ctrl.set_config(Config::project_default()).is_err() {
+    if ctrl.set_config(host_config()).is_err() {
         fail("set_config");
     }
-    ctrl.init_random(1);
+    ctrl.init_random(SEED);
+    #[cfg(feature = "pil")]
+    pil::run(ctrl, count::Clock::new());
+    #[cfg(not(feature = "pil"))]
+    bench(ctrl)
+}
+
+/// The seed of the initial tables: `trn train --bus slcan:qemu` must use the same `--seed`.
+const SEED: u64 = 1;
+
+/// The configuration `trn` gives the host controller for the default simulator: the
+/// project preset with the initial weights over the 1024 x 768 camera images.
+fn host_config() -> Config {
+    let mut cfg = Config::project_default();
+    for s in [&mut cfg.stage1, &mut cfg.stage2] {
+        s.init.x = (0.0, 1024.0);
+        s.init.y = (0.0, 768.0);
+        s.input_min = -1024.0;
+        s.input_max = 2048.0;
+    }
+    cfg
+}
+
+#[cfg_attr(feature = "pil", allow(dead_code))]
+fn bench(ctrl: &mut Controller) -> ! {
     let mut counter = count::Counter::new();
     let per_tick = counter.calibrate();
 

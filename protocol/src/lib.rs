@@ -25,6 +25,7 @@ mod message;
 mod node;
 mod reassembly;
 mod segment;
+pub mod slcan;
 
 #[cfg(feature = "std")]
 pub mod bus;

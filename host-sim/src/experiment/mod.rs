@@ -9,6 +9,7 @@ pub mod plot;
 pub mod report;
 pub mod run;
 pub mod session;
+pub mod slcan_bus;
 pub mod summary;
 
 pub use report::Report;

@@ -241,6 +241,40 @@ pub fn run_plan_with(
             checkpoint_out,
             &mut report,
         )?;
+    } else if common.bus == "slcan:qemu" {
+        // processor-in-the-loop: the controller is the firmware in QEMU, seeded with 1 and
+        // configured as the host's project preset (firmware/src/main.rs)
+        if common.seed != 1
+            || common.preset != Preset::Project
+            || common.ablation != Ablation::None
+            || common.fd
+        {
+            return Err(AppError::Bus {
+                bus: common.bus.clone(),
+                msg: "the firmware runs the project preset seeded with 1 on CAN 2.0: use --seed 1, no --preset/--ablation/--fd".into(),
+            });
+        }
+        let bus_err = |msg: String| AppError::Bus {
+            bus: common.bus.clone(),
+            msg,
+        };
+        let (port, child) = super::slcan_bus::SlcanPort::spawn_qemu(
+            &super::slcan_bus::qemu_arm(),
+            &super::slcan_bus::firmware_elf(),
+        )
+        .map_err(bus_err)?;
+        drive(
+            common,
+            plan,
+            &cfg,
+            port,
+            plant,
+            mode,
+            silence,
+            Peer::Process(child),
+            None,
+            &mut report,
+        )?;
     } else if let Some(iface) = common.bus.strip_prefix("socketcan:") {
         open_socketcan(
             common,
@@ -257,7 +291,7 @@ pub fn run_plan_with(
     } else {
         return Err(AppError::Bus {
             bus: common.bus.clone(),
-            msg: "expected `inproc` or `socketcan:IFACE`".into(),
+            msg: "expected `inproc`, `socketcan:IFACE` or `slcan:qemu`".into(),
         });
     }
     report.wall_s = started.elapsed().as_secs_f64();
@@ -392,10 +426,12 @@ where
             let clock = move || 1_700_000_000_000_000u64 + start.elapsed().as_micros() as u64;
             let rec = RecordingPort::new(port, std::io::BufWriter::new(file), &iface, clock);
             let mut s = Session::new(rec, plant, mode, common.seed, silence);
+            s.set_heartbeat(heartbeat_for(&common.bus));
             schedule(&mut s, common, plan, cfg, report)
         }
         None => {
             let mut s = Session::new(port, plant, mode, common.seed, silence);
+            s.set_heartbeat(heartbeat_for(&common.bus));
             schedule(&mut s, common, plan, cfg, report)
         }
     };
@@ -595,6 +631,18 @@ where
     bar.finish_and_clear();
     s.finish()?;
     Ok(())
+}
+
+/// The servo drives' heartbeat supervision for a bus. The firmware in QEMU keeps time by
+/// executed instructions (`-icount`), which runs several times slower than the wall clock the
+/// simulator's drives use: its 100 ms heartbeats arrive about every second of wall time, so
+/// the drives allow 30 s there instead of 500 ms.
+fn heartbeat_for(bus: &str) -> trn_protocol::HeartbeatConfig {
+    let mut hb = trn_protocol::HeartbeatConfig::default();
+    if bus.starts_with("slcan:") {
+        hb.timeout_ms = 30_000;
+    }
+    hb
 }
 
 fn aborted(r: &TrialRecord) -> usize {
