@@ -16,13 +16,18 @@ impl Counter {
     /// Takes SysTick (once).
     pub fn new() -> Counter {
         let p = cortex_m::Peripherals::take();
-        let Some(p) = p else { crate::fail("peripherals taken twice") };
+        let Some(p) = p else {
+            crate::fail("peripherals taken twice")
+        };
         let mut syst = p.SYST;
         syst.set_clock_source(SystClkSource::Core);
         syst.set_reload(RELOAD);
         syst.clear_current();
         syst.enable_counter();
-        Counter { syst, per_tick: 1.0 }
+        Counter {
+            syst,
+            per_tick: 1.0,
+        }
     }
 
     fn now(&self) -> u32 {
@@ -66,13 +71,19 @@ const TICKS_PER_MS: u64 = 25_000;
 impl Clock {
     /// Takes SysTick (once).
     pub fn new() -> Clock {
-        let Some(p) = cortex_m::Peripherals::take() else { crate::fail("peripherals taken twice") };
+        let Some(p) = cortex_m::Peripherals::take() else {
+            crate::fail("peripherals taken twice")
+        };
         let mut syst = p.SYST;
         syst.set_clock_source(SystClkSource::Core);
         syst.set_reload(RELOAD);
         syst.clear_current();
         syst.enable_counter();
-        Clock { syst, last: SYST::get_current(), ticks: 0 }
+        Clock {
+            syst,
+            last: SYST::get_current(),
+            ticks: 0,
+        }
     }
 
     /// Milliseconds since start (wrapping `u32`, as the node expects).

@@ -105,7 +105,11 @@ fn bench(ctrl: &mut Controller) -> ! {
         let v = plant(&p);
         let supervised = if step < 5 { Some(p) } else { None };
         let n = counter.measure(|| {
-            let mut cmd = ctrl.begin(Task::Stage1 { v, supervised, learn: true });
+            let mut cmd = ctrl.begin(Task::Stage1 {
+                v,
+                supervised,
+                learn: true,
+            });
             for _ in 0..3 {
                 match cmd {
                     Ok(Command::Move { pressures, .. }) => {
@@ -124,9 +128,20 @@ fn bench(ctrl: &mut Controller) -> ! {
     let finite = ctrl.stage1().net().is_finite();
     let stack = count::stack_high_water_mark();
     hprintln!("trn-firmware bench (QEMU mps2-an386, Cortex-M4F, -icount shift=0)");
-    hprintln!("calibration: {} instructions per SysTick tick (x1000)", (per_tick * 1000.0) as u32);
-    hprintln!("stage1 control step (rank + coarse): mean {} max {} instructions", ctl_sum / STEPS as u64, ctl_max);
-    hprintln!("stage1 learning step (coarse + 2 fine, all updates): mean {} max {} instructions", learn_sum / STEPS as u64, learn_max);
+    hprintln!(
+        "calibration: {} instructions per SysTick tick (x1000)",
+        (per_tick * 1000.0) as u32
+    );
+    hprintln!(
+        "stage1 control step (rank + coarse): mean {} max {} instructions",
+        ctl_sum / STEPS as u64,
+        ctl_max
+    );
+    hprintln!(
+        "stage1 learning step (coarse + 2 fine, all updates): mean {} max {} instructions",
+        learn_sum / STEPS as u64,
+        learn_max
+    );
     hprintln!("stack high-water mark: {} bytes", stack);
     hprintln!("tables finite after learning: {}", finite);
     if !finite {

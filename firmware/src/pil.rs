@@ -26,7 +26,11 @@ struct State {
 }
 
 static mut STATE: State = State {
-    node: ControllerNode::new(NodeConfig { heartbeat_period_ms: 100, observation_timeout_ms: 2000, capture_retries: 2 }),
+    node: ControllerNode::new(NodeConfig {
+        heartbeat_period_ms: 100,
+        observation_timeout_ms: 2000,
+        capture_retries: 2,
+    }),
     enc: Encoder::new(BusMode::Classic),
     rx: Reassembler::new(DEFAULT_STALE_MS),
     line: [0; MAX_LINE],
@@ -38,7 +42,12 @@ pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
     // SAFETY: the only access to STATE, taken once; single-threaded firmware, no interrupts.
     #[allow(unsafe_code)]
     let state: &'static mut State = unsafe { &mut *core::ptr::addr_of_mut!(STATE) };
-    let State { node, enc, rx, line } = state;
+    let State {
+        node,
+        enc,
+        rx,
+        line,
+    } = state;
     let mut len = 0usize;
     loop {
         let now = clock.now_ms();
@@ -49,13 +58,17 @@ pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
                 if len > 0 {
                     if let Ok(frame) = slcan::decode(&line[..len]) {
                         let now = clock.now_ms();
-                        let _ = node.on_frame(ctrl, rx, enc, &frame, now, &mut |f| send(&mut uart, f));
+                        let _ =
+                            node.on_frame(ctrl, rx, enc, &frame, now, &mut |f| send(&mut uart, f));
                     }
                     len = 0;
                 }
                 if node.idle_requested() {
                     let stack = crate::count::stack_high_water_mark();
-                    cortex_m_semihosting::hprintln!("trn-firmware pil: stack high-water mark: {} bytes", stack);
+                    cortex_m_semihosting::hprintln!(
+                        "trn-firmware pil: stack high-water mark: {} bytes",
+                        stack
+                    );
                     debug::exit(debug::EXIT_SUCCESS);
                 }
             } else if len < MAX_LINE {
