@@ -1,10 +1,26 @@
 //! Executed-instruction counts from SysTick under QEMU's `-icount shift=0`, and the stack
 //! high-water mark from cortex-m-rt's painted stack.
 
+// The bench build uses `Counter`, the PIL build `Clock`.
+#![allow(dead_code)]
+
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 
 const RELOAD: u32 = 0x00FF_FFFF;
+
+/// Takes SysTick (once) and starts it as a free-running 24-bit down-counter of core clocks.
+fn free_running_systick() -> SYST {
+    let Some(p) = cortex_m::Peripherals::take() else {
+        crate::fail("peripherals taken twice")
+    };
+    let mut syst = p.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(RELOAD);
+    syst.clear_current();
+    syst.enable_counter();
+    syst
+}
 
 /// SysTick as a free-running counter; calibrated against a loop of known length.
 pub struct Counter {
@@ -15,17 +31,8 @@ pub struct Counter {
 impl Counter {
     /// Takes SysTick (once).
     pub fn new() -> Counter {
-        let p = cortex_m::Peripherals::take();
-        let Some(p) = p else {
-            crate::fail("peripherals taken twice")
-        };
-        let mut syst = p.SYST;
-        syst.set_clock_source(SystClkSource::Core);
-        syst.set_reload(RELOAD);
-        syst.clear_current();
-        syst.enable_counter();
         Counter {
-            syst,
+            syst: free_running_systick(),
             per_tick: 1.0,
         }
     }
@@ -71,14 +78,7 @@ const TICKS_PER_MS: u64 = 25_000;
 impl Clock {
     /// Takes SysTick (once).
     pub fn new() -> Clock {
-        let Some(p) = cortex_m::Peripherals::take() else {
-            crate::fail("peripherals taken twice")
-        };
-        let mut syst = p.SYST;
-        syst.set_clock_source(SystClkSource::Core);
-        syst.set_reload(RELOAD);
-        syst.clear_current();
-        syst.enable_counter();
+        let syst = free_running_systick();
         Clock {
             syst,
             last: SYST::get_current(),
