@@ -29,7 +29,7 @@ step() {
     fi
 }
 
-fmt() { cargo fmt --all -- --check; }
+fmt() { cargo fmt --all -- --check && rustfmt --check --edition 2021 firmware/src/*.rs; }
 clippy() { cargo clippy --workspace --all-targets --all-features -- -D warnings; }
 unit() { cargo test --workspace --all-features --release; }
 
