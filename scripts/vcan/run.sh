@@ -16,7 +16,7 @@ rm -f "$out"/*.json "$out"/*.log
 
 need_apt=()
 command -v qemu-system-x86_64 >/dev/null || need_apt+=(qemu-system-x86)
-[ -x /bin/busybox ] && /bin/busybox --list | grep -qx ip || need_apt+=(busybox-static)
+[ -x /bin/busybox ] || need_apt+=(busybox-static)
 if [ ${#need_apt[@]} -gt 0 ]; then
     echo "vcan: installing ${need_apt[*]}"
     apt-get update -qq
