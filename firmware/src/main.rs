@@ -53,14 +53,22 @@ fn main() -> ! {
     // and this reference is taken once.
     #[allow(unsafe_code)]
     let ctrl: &'static mut Controller = unsafe { &mut *core::ptr::addr_of_mut!(CONTROLLER) };
-    if ctrl.set_config(host_config()).is_err() {
-        fail("set_config");
-    }
-    ctrl.init_random(SEED);
+    setup(ctrl);
     #[cfg(feature = "pil")]
     pil::run(ctrl, count::Clock::new());
     #[cfg(not(feature = "pil"))]
     bench(ctrl)
+}
+
+/// Configures and seeds the controller. Not inlined: the `Config` and the seeding's
+/// temporaries live in this frame only, not in `main`'s frame under the whole run (about
+/// 1 KiB of stack).
+#[inline(never)]
+fn setup(ctrl: &mut Controller) {
+    if ctrl.set_config(host_config()).is_err() {
+        fail("set_config");
+    }
+    ctrl.init_random(SEED);
 }
 
 /// The seed of the initial tables: `trn train --bus slcan:qemu` must use the same `--seed`.

@@ -36,6 +36,36 @@ static mut STATE: State = State {
     line: [0; MAX_LINE],
 };
 
+// `poll` and `receive` are not inlined into `run`: their frames (message decoding and
+// encoding) then share the same stack instead of adding up in `run`'s frame.
+
+/// The node's timers (heartbeat, observation timeout, captures).
+#[inline(never)]
+fn poll(
+    node: &mut ControllerNode,
+    ctrl: &mut Controller,
+    enc: &mut Encoder,
+    now: u32,
+    uart: &mut Uart,
+) {
+    // frame errors are counted by nobody here: a bad frame is dropped, as on the host
+    let _ = node.poll_frames(ctrl, enc, now, &mut |f| send(uart, f));
+}
+
+/// One received frame.
+#[inline(never)]
+fn receive(
+    node: &mut ControllerNode,
+    ctrl: &mut Controller,
+    rx: &mut Reassembler,
+    enc: &mut Encoder,
+    frame: &CanFrame,
+    now: u32,
+    uart: &mut Uart,
+) {
+    let _ = node.on_frame(ctrl, rx, enc, frame, now, &mut |f| send(uart, f));
+}
+
 /// Runs the node until the runner ends the session.
 pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
     let mut uart = Uart::new();
@@ -51,15 +81,13 @@ pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
     let mut len = 0usize;
     loop {
         let now = clock.now_ms();
-        // frame errors are counted by nobody here: a bad frame is dropped, as on the host
-        let _ = node.poll_frames(ctrl, enc, now, &mut |f| send(&mut uart, f));
+        poll(node, ctrl, enc, now, &mut uart);
         while let Some(b) = uart.read_byte() {
             if b == b'\r' || b == b'\n' {
                 if len > 0 {
                     if let Ok(frame) = slcan::decode(&line[..len]) {
                         let now = clock.now_ms();
-                        let _ =
-                            node.on_frame(ctrl, rx, enc, &frame, now, &mut |f| send(&mut uart, f));
+                        receive(node, ctrl, rx, enc, &frame, now, &mut uart);
                     }
                     len = 0;
                 }

@@ -21,9 +21,11 @@ read -r ram flash < <(sections "$elf")
 # the full firmware (the controller node, SLCAN over UART) is what has to fit
 bash "$root/scripts/cross/pil.sh" --build-only
 read -r ram_pil flash_pil < <(sections target/pil/thumbv7em-none-eabihf/release/trn-firmware)
+rc=0
 out=$(timeout 120 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
-    -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf")
+    -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" 2>&1) || rc=$?
 echo "$out"
+[ $rc -eq 0 ] || { echo "budget: FAIL: the benchmark in QEMU exited with $rc (124: timeout)" >&2; exit 1; }
 control=$(echo "$out" | sed -n 's/^stage1 control step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
 learn=$(echo "$out" | sed -n 's/^stage1 learning step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
 stack=$(echo "$out" | sed -n 's/^stack high-water mark: \([0-9]*\) bytes/\1/p')

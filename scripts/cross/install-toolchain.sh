@@ -2,33 +2,61 @@
 # Installs what the Cortex-M builds and runs need (idempotent): Debian's Rust toolchain with
 # the core sources (rustup here has only the x86_64 std), binutils for arm-none-eabi (the
 # linker and `size`), and qemu-system-arm, unpacked from its .deb into .vm/qemu-arm so that
-# installing it cannot disturb the machine's other QEMU packages.
+# installing it cannot disturb the machine's other QEMU packages (apt-installing it may
+# remove a newer qemu-utils).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
+export DEBIAN_FRONTEND=noninteractive
+
+wait_dpkg() { # another apt/dpkg may hold the lock
+    while fuser /var/lib/dpkg/lock-frontend /var/lib/dpkg/lock >/dev/null 2>&1; do sleep 3; done
+}
+updated=0
+apt_update() { # once per run
+    if [ $updated -eq 0 ]; then
+        wait_dpkg
+        apt-get update -qq
+        updated=1
+    fi
+}
+apt_install() {
+    apt_update
+    wait_dpkg
+    apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
 need=()
 [ -x /usr/bin/rustc ] && [ -x /usr/bin/cargo ] || need+=(rustc-web cargo-web)
 [ -d /usr/lib/rustlib/src/rust/library/core ] || need+=(rust-web-src)
 command -v arm-none-eabi-ld >/dev/null || need+=(binutils-arm-none-eabi)
+command -v fuser >/dev/null || need+=(psmisc)
 dpkg -s qemu-system-common >/dev/null 2>&1 || need+=(qemu-system-common qemu-system-data)
 if [ ${#need[@]} -gt 0 ]; then
     echo "cross: installing ${need[*]}"
-    apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
+    apt_install "${need[@]}"
 fi
-qemu="$root/.vm/qemu-arm/root/usr/bin/qemu-system-arm"
+
+cache="$root/.vm/qemu-arm"
+qemu="$cache/root/usr/bin/qemu-system-arm"
 if [ ! -x "$qemu" ]; then
-    echo "cross: unpacking qemu-system-arm"
-    mkdir -p "$root/.vm/qemu-arm"
-    (cd "$root/.vm/qemu-arm" && rm -f qemu-system-arm_*.deb && apt-get download qemu-system-arm 2>/dev/null \
-        && dpkg -x qemu-system-arm_*.deb root)
-    # its shared libraries come with qemu-system-common's dependencies; fetch any missing
+    echo "cross: unpacking qemu-system-arm into $cache"
+    mkdir -p "$cache"
+    cd "$cache"
+    rm -f qemu-system-arm_*.deb
+    # the version of the installed qemu-system-common (its data and modules), else the candidate
+    ver=$(dpkg-query -W -f='${Version}' qemu-system-common 2>/dev/null || true)
+    get() { apt-get download -qq "qemu-system-arm${ver:+=$ver}" 2>/dev/null || apt-get download -qq qemu-system-arm; }
+    get || { apt_update; get; }
+    dpkg -x qemu-system-arm_*.deb root
+    # its shared libraries come with qemu-system-common's dependencies; install any missing
     missing=$(ldd "$qemu" | awk '/not found/{print $1}')
     if [ -n "$missing" ]; then
-        echo "cross: qemu-system-arm misses $missing: installing its dependencies"
-        apt-get update -qq
+        echo "cross: qemu-system-arm misses" $missing": installing its dependencies"
         # shellcheck disable=SC2046
-        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(dpkg -I "$root"/.vm/qemu-arm/qemu-system-arm_*.deb \
-            | sed -n 's/^ Depends: //p' | tr ',' '\n' | sed 's/(.*//; s/|.*//' | grep -v qemu-system) >/dev/null
+        apt_install $(dpkg -I qemu-system-arm_*.deb | sed -n 's/^ Depends: //p' | tr ',' '\n' \
+            | sed 's/(.*//; s/|.*//; s/ //g' | grep -v '^qemu-system' | grep -v '^$')
     fi
+    cd - >/dev/null
 fi
+"$qemu" -machine help | grep -q mps2-an386 || { echo "cross: $qemu has no mps2-an386 board" >&2; exit 1; }
 echo "cross: /usr/bin/rustc $(/usr/bin/rustc --version | cut -d' ' -f2), $(arm-none-eabi-ld --version | head -1), $("$qemu" --version | head -1)"
