@@ -16,6 +16,7 @@
 //! - [`stage`]: one network's learning step as a state machine (coarse move, fine moves
 //!   until the tolerance (8.7) or a cap, updates).
 //! - [`config`]: every constant; [`Config::paper`] beside [`Config::project_default`].
+//! - [`presets`]: the named configurations every build (host, firmware) shares.
 //! - [`checkpoint`]: postcard checkpoints with a version and a CRC.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
@@ -28,6 +29,7 @@ pub mod config;
 mod controller;
 mod error;
 pub mod net;
+pub mod presets;
 pub mod rank;
 pub mod rules;
 pub mod stage;

@@ -18,6 +18,7 @@ mod uart;
 use core::panic::PanicInfo;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
+use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{Command, Config, Controller, Observation, Task};
 
 /// Both networks and the controller state, all zero bytes at reset: the linker puts it in
@@ -74,17 +75,10 @@ fn setup(ctrl: &mut Controller) {
 /// The seed of the initial tables: `trn train --bus slcan:qemu` must use the same `--seed`.
 const SEED: u64 = 1;
 
-/// The configuration `trn` gives the host controller for the default simulator: the
-/// project preset with the initial weights over the 1024 x 768 camera images.
+/// The configuration `trn` gives the host controller for the default simulator
+/// (`trn_controller::presets::configure`, the one source both builds use).
 fn host_config() -> Config {
-    let mut cfg = Config::project_default();
-    for s in [&mut cfg.stage1, &mut cfg.stage2] {
-        s.init.x = (0.0, 1024.0);
-        s.init.y = (0.0, 768.0);
-        s.input_min = -1024.0;
-        s.input_max = 2048.0;
-    }
-    cfg
+    presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT)
 }
 
 #[cfg_attr(feature = "pil", allow(dead_code))]

@@ -1,5 +1,7 @@
 //! The CMSDK APB UART0 of the MPS2 boards (register level, polled): QEMU connects it to
-//! `-serial`.
+//! `-serial`. A [`ByteLink`] for the SLCAN port.
+
+use trn_protocol::slcan::ByteLink;
 
 const BASE: usize = 0x4000_4000;
 const DATA: usize = BASE;
@@ -25,27 +27,32 @@ fn write(reg: usize, v: u32) {
 }
 
 impl Uart {
+    /// UART0, not yet enabled.
+    pub const UART0: Uart = Uart(());
+
     /// Enables transmit and receive.
-    pub fn new() -> Uart {
+    pub fn enable(&mut self) {
         write(BAUDDIV, 16);
         write(CTRL, 0b11);
-        Uart(())
     }
+}
 
+impl ByteLink for Uart {
     /// Sends bytes, waiting while the transmit buffer is full.
-    pub fn write_all(&mut self, bytes: &[u8]) {
+    fn write_all(&mut self, bytes: &[u8]) -> trn_protocol::Result<()> {
         for &b in bytes {
             while read(STATE) & TX_FULL != 0 {}
             write(DATA, b as u32);
         }
+        Ok(())
     }
 
     /// A received byte, if any.
-    pub fn read_byte(&mut self) -> Option<u8> {
-        if read(STATE) & RX_FULL != 0 {
+    fn read_byte(&mut self) -> trn_protocol::Result<Option<u8>> {
+        Ok(if read(STATE) & RX_FULL != 0 {
             Some(read(DATA) as u8)
         } else {
             None
-        }
+        })
     }
 }

@@ -1,12 +1,18 @@
 //! `trn-sim`: the simulated SoftArm plant and the experiment around the TRN controller.
 //!
-//! - [`arm`]: the plant: hysteretic pneumatic joints behind servo drives, kinematics,
+//! - [`plant`]: the plant: hysteretic pneumatic joints behind servo drives, kinematics,
 //!   stereo cameras, cylinders.
-//! - [`experiment`]: the plant's CAN nodes, the experiment runner, reports, plots and the
-//!   `trn` command line.
+//! - [`nodes`]: the plant's CAN nodes (servo drives, camera processor, gripper) as sans-IO
+//!   state machines.
+//! - [`experiment`]: the runner, the rig that serves the bus, scoring, reports, plots and
+//!   the `trn` command line.
+//! - [`transport`]: the bus forms and the controller's side of a run (thread, process,
+//!   firmware in QEMU).
 
-pub mod arm;
+mod error;
 pub mod experiment;
+pub mod nodes;
+pub mod plant;
+pub mod transport;
 
-/// The plant under its conventional name.
-pub use arm as plant;
+pub use error::{Error, Result};

@@ -1,77 +1,17 @@
-//! The controller node's state machine.
+//! The controller node's state machine: protocol messages in, controller calls, protocol
+//! messages out.
 
-use trn_controller::{
-    Command, Controller, Error as CtrlError, Observation as CtrlObs, ObserveKind, Outcome, Task,
-};
+use trn_controller::{Command, Controller, Error as CtrlError, ObserveKind, Outcome, Task};
+use trn_protocol as proto;
 use trn_protocol::{
     CanFrame, CaptureKind, CaptureRequest, Encoder, Envelope, ErrorReport, GripperCommand,
-    Heartbeat, Joint, Message, Mode, NodeId, NodeState, Observation, PointStatus, PressureCommand,
-    Reassembler, TrialReport,
+    Heartbeat, Joint, Message, Mode, NodeId, NodeState, PointStatus, PressureCommand, Reassembler,
+    TrialReport,
 };
 
-/// Capacity of an [`Outbox`]: the largest burst one event can produce (5 pressure
-/// commands, a capture request, two trial reports, a gripper command, an error, a heartbeat).
-pub const OUTBOX: usize = 16;
-
-/// Messages to send, each with its CAN node field (destination for commands, this node as
-/// source for reports).
-pub type Outbox = heapless::Vec<Envelope, OUTBOX>;
-
-/// `ErrorReport` codes sent by the controller node (`protocol/SPEC.md`).
-pub mod codes {
-    /// A trial ended without a result; detail = trial. Always preceded by the reason.
-    pub const TRIAL_ABORTED: u16 = 0x0100;
-    /// An observation had an invalid point; detail = `point index << 8 | PointStatus as u8`.
-    /// The trial is aborted.
-    pub const INVALID_OBSERVATION: u16 = 0x0101;
-    /// No observation arrived after the capture request and its retries; detail = the
-    /// request's sequence number. The trial is aborted.
-    pub const OBSERVATION_TIMEOUT: u16 = 0x0102;
-    /// The controller rejected an input; detail = the controller error's code (see
-    /// [`super::controller_error_code`]). The trial (if any) is aborted.
-    pub const CONTROLLER_ERROR: u16 = 0x0103;
-    /// A grasp target arrived without its `GraspRequest` or first half; detail = trial.
-    /// Nothing starts.
-    pub const OUT_OF_ORDER: u16 = 0x0104;
-    /// The outbox overflowed (a bug): detail = messages dropped.
-    pub const OUTBOX_FULL: u16 = 0x0105;
-}
-
-/// A stable numeric code for each controller error (sent in `ErrorReport.detail`).
-pub fn controller_error_code(e: &CtrlError) -> u32 {
-    match e {
-        CtrlError::NonFiniteInput { index } => 0x100 | *index as u32,
-        CtrlError::InputOutOfRange { index, .. } => 0x200 | *index as u32,
-        CtrlError::InvalidPressure { index } => 0x300 | *index as u32,
-        CtrlError::ZeroLengthDv => 0x400,
-        CtrlError::UnexpectedObservation => 0x500,
-        CtrlError::WrongObservationKind => 0x600,
-        CtrlError::Busy => 0x700,
-        CtrlError::TargetOutsideLearnedRegion { .. } => 0x800,
-        _ => 0xF00,
-    }
-}
-
-/// Timing of the node.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NodeConfig {
-    /// Heartbeat period (ms): 100.
-    pub heartbeat_period_ms: u32,
-    /// How long to wait for an observation before repeating the capture request (ms).
-    pub observation_timeout_ms: u32,
-    /// Capture requests repeated before the trial is aborted.
-    pub capture_retries: u8,
-}
-
-impl Default for NodeConfig {
-    fn default() -> Self {
-        NodeConfig {
-            heartbeat_period_ms: 100,
-            observation_timeout_ms: 2000,
-            capture_retries: 2,
-        }
-    }
-}
+use crate::codes;
+use crate::config::NodeConfig;
+use crate::outbox::{push, send, FrameError, Outbox};
 
 /// Counters of what the node saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -87,6 +27,8 @@ pub struct NodeStats {
     pub capture_retries: u32,
     /// Messages not meant for the controller, ignored.
     pub ignored: u32,
+    /// Frames dropped by the reassembler (malformed, lost or corrupt segments).
+    pub frame_errors: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -121,20 +63,6 @@ pub struct ControllerNode {
     stats: NodeStats,
 }
 
-fn push(out: &mut Outbox, node: NodeId, msg: Message) {
-    if out.push(Envelope::new(node, msg)).is_err() {
-        // Cannot happen with OUTBOX sized for the largest burst; replace the last entry by
-        // a report so the loss is visible on the bus rather than silent.
-        if let Some(last) = out.last_mut() {
-            let report = ErrorReport {
-                code: codes::OUTBOX_FULL,
-                detail: 1,
-            };
-            *last = Envelope::new(NodeId::Controller, report.into());
-        }
-    }
-}
-
 fn out_of_order(out: &mut Outbox, trial: u32) {
     let report = ErrorReport {
         code: codes::OUT_OF_ORDER,
@@ -142,10 +70,6 @@ fn out_of_order(out: &mut Outbox, trial: u32) {
     };
     push(out, NodeId::Controller, report.into());
 }
-
-/// Frame-level errors seen by [`ControllerNode::on_frame`] (the frame is dropped; nothing
-/// else changes).
-pub type FrameError = trn_protocol::Error;
 
 impl ControllerNode {
     /// A node in mode `Idle`.
@@ -167,6 +91,7 @@ impl ControllerNode {
                 stale_observations: 0,
                 capture_retries: 0,
                 ignored: 0,
+                frame_errors: 0,
             },
         }
     }
@@ -174,6 +99,10 @@ impl ControllerNode {
     /// Counters.
     pub fn stats(&self) -> &NodeStats {
         &self.stats
+    }
+
+    pub(crate) fn count_frame_error(&mut self) {
+        self.stats.frame_errors = self.stats.frame_errors.saturating_add(1);
     }
 
     /// The trial in progress, if any.
@@ -275,7 +204,12 @@ impl ControllerNode {
                 self.on_observation(ctrl, o, now_ms, out)
             }
             (NodeId::Controller, Message::SupervisedPressure(s)) => {
-                self.supervised = Some((s.trial, s.p))
+                // supervised pressures belong to priming: ignored once training began
+                if matches!(self.mode, Mode::Idle | Mode::Priming) {
+                    self.supervised = Some((s.trial, s.p))
+                } else {
+                    self.stats.ignored += 1;
+                }
             }
             (NodeId::Controller, Message::GraspRequest(g)) => {
                 self.grasp = Some(PendingGrasp {
@@ -290,7 +224,7 @@ impl ControllerNode {
                         Some(g) if g.trial == t.trial => {
                             self.grasp = Some(PendingGrasp {
                                 v: Some(t.v),
-                                learn: t.learn,
+                                learn: self.learns(t.learn),
                                 ..g
                             })
                         }
@@ -308,7 +242,7 @@ impl ControllerNode {
                     Task::Stage1 {
                         v: t.v,
                         supervised,
-                        learn: t.learn,
+                        learn: self.learns(t.learn),
                     },
                     now_ms,
                     out,
@@ -333,7 +267,7 @@ impl ControllerNode {
                     t.trial,
                     Task::Stage2 {
                         c: t.c,
-                        learn: t.learn,
+                        learn: self.learns(t.learn),
                     },
                     now_ms,
                     out,
@@ -356,6 +290,12 @@ impl ControllerNode {
     /// may save its checkpoint and exit).
     pub fn idle_requested(&self) -> bool {
         self.idle_requested
+    }
+
+    /// Whether a target that asks to `learn` may: never in `Mature` mode, where the tables
+    /// are frozen whatever a target says.
+    fn learns(&self, learn: bool) -> bool {
+        learn && self.mode != Mode::Mature
     }
 
     /// The operating mode last set by a `ModeChange`.
@@ -388,7 +328,7 @@ impl ControllerNode {
     fn on_observation(
         &mut self,
         ctrl: &mut Controller,
-        o: &Observation,
+        o: &proto::Observation,
         now_ms: u32,
         out: &mut Outbox,
     ) {
@@ -428,11 +368,14 @@ impl ControllerNode {
                     v[2 * i] = p.x;
                     v[2 * i + 1] = p.y;
                 }
-                CtrlObs::Lights(v)
+                trn_controller::Observation::Lights(v)
             }
-            CaptureKind::GripperCentre => {
-                CtrlObs::Centre([o.points[0].x, o.points[0].y, o.points[1].x, o.points[1].y])
-            }
+            CaptureKind::GripperCentre => trn_controller::Observation::Centre([
+                o.points[0].x,
+                o.points[0].y,
+                o.points[1].x,
+                o.points[1].y,
+            ]),
         };
         match ctrl.observe(obs) {
             Ok(cmd) => self.execute(ctrl, cmd, now_ms, out),
@@ -504,7 +447,7 @@ impl ControllerNode {
     }
 
     fn reject(&mut self, ctrl: &mut Controller, e: CtrlError, out: &mut Outbox) {
-        let detail = controller_error_code(&e);
+        let detail = codes::controller_error_code(&e);
         push(
             out,
             NodeId::Controller,
@@ -534,18 +477,4 @@ impl ControllerNode {
         self.awaiting = None;
         self.stats.aborted += 1;
     }
-}
-
-/// Encodes every message of `out` and passes its frames to `tx`.
-pub fn send(
-    enc: &mut Encoder,
-    out: &Outbox,
-    tx: &mut impl FnMut(&CanFrame),
-) -> Result<(), FrameError> {
-    for env in out {
-        for f in &enc.encode(env)? {
-            tx(f);
-        }
-    }
-    Ok(())
 }

@@ -73,8 +73,6 @@ kinds! {
     TrialReport = 0x28, false;
     /// Error report (report).
     ErrorReport = 0x30, false;
-    /// A checkpoint was saved (report).
-    CheckpointSaved = 0x38, false;
     /// Heartbeat (report), `0x700 | node` as in CANopen.
     Heartbeat = 0x70, false;
 }
@@ -96,8 +94,7 @@ impl MessageKind {
             | K::Stage1Target
             | K::Stage2Target
             | K::GraspRequest
-            | K::TrialReport
-            | K::CheckpointSaved => matches!(node, NodeId::Controller),
+            | K::TrialReport => matches!(node, NodeId::Controller),
             K::ModeChange => matches!(node, NodeId::Controller | NodeId::Broadcast),
             K::Emergency | K::SafeStateEntered | K::ErrorReport | K::Heartbeat => {
                 !matches!(node, NodeId::Broadcast)
@@ -157,8 +154,8 @@ mod tests {
                 valid += 1;
             }
         }
-        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 6 + mode 2 + any-node 4 x 9
-        assert_eq!(valid, 10 + 2 + 2 + 6 + 2 + 4 * 9);
+        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 5 + mode 2 + any-node 4 x 9
+        assert_eq!(valid, 10 + 2 + 2 + 5 + 2 + 4 * 9);
         assert_eq!(CanId::from_raw(0x800), Err(Error::InvalidId(0x800)));
     }
 

@@ -1,9 +1,13 @@
 //! SLCAN (the Lawicel ASCII format of USB-CAN adapters and Linux `slcand`): CAN frames as
-//! text lines, used to carry the bus over a UART to the firmware in QEMU.
+//! text lines, used to carry the bus over a UART to the firmware in QEMU and over the
+//! serial device of a USB-CAN adapter.
 //!
 //! Classical frames: `tIIIL<data>\r` (`III` 3 hex digits of the 11-bit id, `L` the length
 //! 0..8, two hex digits a byte). CAN FD frames (the common `d` extension): `dIIIC<data>\r`
-//! with `C` the FD length code 0..F.
+//! with `C` the FD length code 0..F. protocol/SPEC.md has the whole line format.
+//!
+//! [`SlcanPort`] is an `embedded-can` port over any [`ByteLink`]: the firmware's UART, or a
+//! host serial device.
 
 use crate::error::{Error, Result};
 use crate::frame::{CanFrame, FD_MAX};
@@ -74,6 +78,113 @@ pub fn decode(line: &[u8]) -> Result<CanFrame> {
     CanFrame::new_checked(id, &data[..len], fd)
 }
 
+/// Assembles SLCAN lines from a byte stream.
+#[derive(Debug, Clone)]
+pub struct LineDecoder {
+    line: [u8; MAX_LINE],
+    len: usize,
+    overlong: bool,
+}
+
+impl Default for LineDecoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl LineDecoder {
+    /// An empty decoder.
+    pub const fn new() -> Self {
+        LineDecoder {
+            line: [0; MAX_LINE],
+            len: 0,
+            overlong: false,
+        }
+    }
+
+    /// Feeds one byte. At the end of a line (`\r` or `\n`) returns its frame, or the error
+    /// of a malformed or overlong line; empty lines and the bytes within a line give `None`.
+    pub fn push(&mut self, b: u8) -> Option<Result<CanFrame>> {
+        if b == b'\r' || b == b'\n' {
+            let (len, overlong) = (self.len, self.overlong);
+            self.len = 0;
+            self.overlong = false;
+            return match (len, overlong) {
+                (_, true) => Some(Err(Error::FrameFormat)),
+                (0, false) => None,
+                _ => Some(decode(&self.line[..len])),
+            };
+        }
+        if self.len < MAX_LINE {
+            self.line[self.len] = b;
+            self.len += 1;
+        } else {
+            self.overlong = true;
+        }
+        None
+    }
+}
+
+/// A byte link an SLCAN port runs over: a UART, a serial device.
+pub trait ByteLink {
+    /// A received byte, if one is waiting (never blocks).
+    fn read_byte(&mut self) -> Result<Option<u8>>;
+    /// Sends bytes (may wait while the link's transmit buffer is full).
+    fn write_all(&mut self, bytes: &[u8]) -> Result<()>;
+}
+
+/// CAN frames as SLCAN lines over a [`ByteLink`], behind the `embedded-can` traits.
+#[derive(Debug)]
+pub struct SlcanPort<L> {
+    link: L,
+    dec: LineDecoder,
+    bad_lines: u32,
+}
+
+impl<L: ByteLink> SlcanPort<L> {
+    /// A port on `link`.
+    pub const fn new(link: L) -> Self {
+        SlcanPort {
+            link,
+            dec: LineDecoder::new(),
+            bad_lines: 0,
+        }
+    }
+
+    /// Lines that were not SLCAN frames (dropped).
+    pub fn bad_lines(&self) -> u32 {
+        self.bad_lines
+    }
+
+    /// The link.
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.link
+    }
+}
+
+impl<L: ByteLink> embedded_can::nb::Can for SlcanPort<L> {
+    type Frame = CanFrame;
+    type Error = Error;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Error> {
+        let mut line = [0u8; MAX_LINE];
+        let n = encode(frame, &mut line);
+        self.link.write_all(&line[..n]).map_err(nb::Error::Other)?;
+        Ok(None)
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, Error> {
+        while let Some(b) = self.link.read_byte().map_err(nb::Error::Other)? {
+            match self.dec.push(b) {
+                Some(Ok(f)) => return Ok(f),
+                Some(Err(_)) => self.bad_lines = self.bad_lines.saturating_add(1),
+                None => {}
+            }
+        }
+        Err(nb::Error::WouldBlock)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,6 +216,51 @@ mod tests {
         ] {
             assert!(decode(bad).is_err(), "{:?}", core::str::from_utf8(bad));
         }
+    }
+
+    /// A link that replays bytes and records what is written.
+    struct Loop {
+        input: std::vec::Vec<u8>,
+        output: std::vec::Vec<u8>,
+    }
+
+    impl ByteLink for Loop {
+        fn read_byte(&mut self) -> Result<Option<u8>> {
+            Ok(if self.input.is_empty() {
+                None
+            } else {
+                Some(self.input.remove(0))
+            })
+        }
+        fn write_all(&mut self, bytes: &[u8]) -> Result<()> {
+            self.output.extend_from_slice(bytes);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_port_over_a_byte_link_skips_bad_lines() {
+        use embedded_can::nb::Can;
+        let mut input = b"\r\nt1232ABCD\rxyz\r".to_vec();
+        input.extend(std::iter::repeat_n(b'1', MAX_LINE + 5));
+        input.extend(b"\rt7000\r");
+        let mut port = SlcanPort::new(Loop {
+            input,
+            output: vec![],
+        });
+        assert_eq!(
+            port.receive().unwrap(),
+            CanFrame::classic(0x123, &[0xAB, 0xCD]).unwrap()
+        );
+        assert_eq!(
+            port.receive().unwrap(),
+            CanFrame::classic(0x700, &[]).unwrap()
+        );
+        assert_eq!(port.bad_lines(), 2, "`xyz` and the overlong line");
+        assert!(matches!(port.receive(), Err(nb::Error::WouldBlock)));
+        port.transmit(&CanFrame::classic(0x701, &[1, 2]).unwrap())
+            .unwrap();
+        assert_eq!(port.link_mut().output, b"t70120102\r");
     }
 
     proptest! {

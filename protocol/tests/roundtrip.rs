@@ -185,7 +185,6 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::GraspRequest, 4),
         (MessageKind::TrialReport, 15),
         (MessageKind::ErrorReport, 6),
-        (MessageKind::CheckpointSaved, 8),
         (MessageKind::Heartbeat, 2),
     ];
     assert_eq!(expected.len(), MessageKind::ALL.len());

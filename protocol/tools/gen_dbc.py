@@ -49,7 +49,6 @@ KINDS = [
     ("ModeChange", 0x18, 1, [1, BROADCAST], None, [ENUM("mode", 0, "Mode")]),
     ("GraspRequest", 0x23, 4, [1], "Runner", [U32("trial", 0)]),
     ("ErrorReport", 0x30, 6, ANY, None, [U16("code", 0), U32("detail", 16)]),
-    ("CheckpointSaved", 0x38, 8, [1], None, [U32("bytes", 0, "B"), U32("crc", 32)]),
     ("Heartbeat", 0x70, 2, ANY, None, [U8("counter", 0), ENUM("state", 8, "NodeState")]),
 ]
 

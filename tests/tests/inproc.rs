@@ -71,21 +71,21 @@ fn a_silent_bus_is_a_typed_error() {
     use std::time::Duration;
     use trn_protocol::bus::InProcBus;
     use trn_protocol::BusMode;
-    use trn_sim::experiment::session::{RunError, Session, TrialKind};
+    use trn_sim::experiment::records::{Phase, TrialKind};
+    use trn_sim::experiment::rig::Rig;
+    use trn_sim::experiment::runner::Runner;
     use trn_sim::plant::{Plant, SimConfig};
+    use trn_sim::Error;
     // no controller on this bus
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
-    let mut s = Session::new(
-        bus.port(),
-        plant,
-        BusMode::Classic,
-        1,
-        Duration::from_millis(200),
-    );
+    let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
+    let mut s = Runner::new(rig, 1, Duration::from_millis(200));
     let _other = bus.port();
-    let e = s.run_trial(TrialKind::Stage2 { learn: true }).unwrap_err();
-    assert!(matches!(e, RunError::BusSilent(_)), "{e}");
+    let e = s
+        .run_trial(TrialKind::Stage2 { learn: true }, Phase::Training)
+        .unwrap_err();
+    assert!(matches!(e, Error::BusSilent(_)), "{e}");
     assert!(e.to_string().contains("bus silent"));
 }
 
@@ -98,17 +98,15 @@ fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
         BusMode, Encoder, Envelope, Heartbeat, Message, NodeId, NodeState, Reassembler,
         SafeStateAction, SafeStateReason,
     };
-    use trn_sim::experiment::session::{RunError, Session, TrialKind};
+    use trn_sim::experiment::records::{Phase, TrialKind};
+    use trn_sim::experiment::rig::Rig;
+    use trn_sim::experiment::runner::Runner;
     use trn_sim::plant::{Plant, SimConfig};
+    use trn_sim::Error;
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
-    let mut s = Session::new(
-        bus.port(),
-        plant,
-        BusMode::Classic,
-        1,
-        Duration::from_millis(1500),
-    );
+    let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
+    let mut s = Runner::new(rig, 1, Duration::from_millis(1500));
     // a controller that sends one heartbeat, then dies
     let mut ctrl = bus.port();
     let hb = Envelope::new(
@@ -122,9 +120,11 @@ fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
     for f in &Encoder::new(BusMode::Classic).encode(&hb).unwrap() {
         ctrl.transmit(f).unwrap();
     }
-    let e = s.run_trial(TrialKind::Stage2 { learn: true }).unwrap_err();
-    assert!(matches!(e, RunError::BusSilent(_)));
-    assert!((0..5).all(|j| s.servo_safe(j)));
+    let e = s
+        .run_trial(TrialKind::Stage2 { learn: true }, Phase::Training)
+        .unwrap_err();
+    assert!(matches!(e, Error::BusSilent(_)));
+    assert!((0..5).all(|j| s.rig().servo_safe(j)));
     let mut rx: Reassembler = Reassembler::new(100);
     let mut announced = vec![];
     while let Some(f) = ctrl.receive_timeout(Duration::from_millis(10)).unwrap() {

@@ -39,17 +39,16 @@ struct Args {
 
 #[cfg(target_os = "linux")]
 fn run(a: &Args) -> Result<(), String> {
-    use trn_sim::experiment::controller_loop;
-    use trn_sim::experiment::run::{
-        controller_config, load_checkpoint, load_sim_config, save_checkpoint,
-    };
+    use trn_sim::experiment::checkpoint_file;
+    use trn_sim::experiment::run::{controller_config, load_sim_config};
+    use trn_sim::transport::controller_loop;
     let sim = load_sim_config(a.config.as_deref()).map_err(|e| e.to_string())?;
     let mut ctrl = Box::new(trn_controller::Controller::new(controller_config(
         a.preset, a.ablation, &sim,
     )));
     ctrl.init_random(a.seed);
     if let Some(p) = &a.checkpoint_in {
-        load_checkpoint(&mut ctrl, p).map_err(|e| e.to_string())?;
+        checkpoint_file::load(&mut ctrl, p).map_err(|e| e.to_string())?;
     }
     let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
         .map_err(|e| format!("{}: {e}", a.iface))?;
@@ -61,11 +60,11 @@ fn run(a: &Args) -> Result<(), String> {
     let stop = std::sync::atomic::AtomicBool::new(false);
     let (ctrl, stats) = controller_loop::run(port, ctrl, mode, &stop).map_err(|e| e.to_string())?;
     eprintln!(
-        "controller-node: {} trials, {} aborted, {} frames in, {} frame errors",
-        stats.node.trials, stats.node.aborted, stats.frames_in, stats.frame_errors
+        "controller-node: {} trials, {} aborted, {} frame errors",
+        stats.node.trials, stats.node.aborted, stats.node.frame_errors
     );
     if let Some(p) = &a.checkpoint_out {
-        save_checkpoint(&ctrl, p).map_err(|e| e.to_string())?;
+        checkpoint_file::save(&ctrl, p).map_err(|e| e.to_string())?;
     }
     Ok(())
 }

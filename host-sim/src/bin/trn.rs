@@ -4,7 +4,8 @@
 use clap::Parser;
 use std::process::ExitCode;
 use trn_sim::experiment::cli::{Cli, Cmd};
-use trn_sim::experiment::run::{run_plan, Plan};
+use trn_sim::experiment::run::run_plan;
+use trn_sim::experiment::schedule::Plan;
 use trn_sim::experiment::{compare, summary};
 
 fn main() -> ExitCode {

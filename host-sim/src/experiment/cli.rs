@@ -50,6 +50,41 @@ pub enum Ablation {
     NoFine,
 }
 
+impl Preset {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        trn_controller::presets::Preset::from(self).name()
+    }
+}
+
+impl From<Preset> for trn_controller::presets::Preset {
+    fn from(p: Preset) -> Self {
+        match p {
+            Preset::Project => Self::Project,
+            Preset::Paper => Self::Paper,
+            Preset::Lifelong => Self::Lifelong,
+        }
+    }
+}
+
+impl Ablation {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        trn_controller::presets::Ablation::from(self).name()
+    }
+}
+
+impl From<Ablation> for trn_controller::presets::Ablation {
+    fn from(a: Ablation) -> Self {
+        match a {
+            Ablation::None => Self::None,
+            Ablation::NoNeighbourhood => Self::NoNeighbourhood,
+            Ablation::NoPriming => Self::NoPriming,
+            Ablation::NoFine => Self::NoFine,
+        }
+    }
+}
+
 /// Options shared by every subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct Common {

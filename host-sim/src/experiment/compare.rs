@@ -2,8 +2,10 @@
 
 use super::cli::{Ablation, Common, CompareArgs, Preset};
 use super::report::mean;
-use super::run::{run_plan, AppError, Plan};
+use super::run::run_plan;
+use super::schedule::Plan;
 use super::summary::trials_to_reach;
+use crate::error::{Error, Result};
 use serde::Serialize;
 
 /// One row of the comparison: a configuration over the seeds.
@@ -42,7 +44,7 @@ fn spread(x: &[f32]) -> (f32, f32) {
 }
 
 /// Runs every configuration over seeds 1..=N and prints a markdown table.
-pub fn run(a: &CompareArgs) -> Result<(), AppError> {
+pub fn run(a: &CompareArgs) -> Result<()> {
     let configs = [
         (Preset::Project, Ablation::None),
         (Preset::Paper, Ablation::None),
@@ -53,8 +55,8 @@ pub fn run(a: &CompareArgs) -> Result<(), AppError> {
     let mut rows = vec![];
     for (preset, ablation) in configs {
         let name = match ablation {
-            Ablation::None => format!("{preset:?}").to_lowercase(),
-            a => format!("{preset:?} {a:?}").to_lowercase(),
+            Ablation::None => preset.name().to_string(),
+            a => format!("{} {}", preset.name(), a.name().replace('-', "")),
         };
         let mut row = Row {
             name,
@@ -121,11 +123,11 @@ pub fn run(a: &CompareArgs) -> Result<(), AppError> {
         );
     }
     if let Some(p) = &a.report {
-        let json = serde_json::to_string_pretty(&rows).map_err(|e| AppError::Io {
+        let json = serde_json::to_string_pretty(&rows).map_err(|e| Error::Io {
             path: p.clone(),
             source: e.into(),
         })?;
-        std::fs::write(p, json).map_err(|source| AppError::Io {
+        std::fs::write(p, json).map_err(|source| Error::Io {
             path: p.clone(),
             source,
         })?;

@@ -5,20 +5,12 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Errors of plotting.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot draw {path}: {msg}")]
-pub struct PlotError {
-    path: String,
-    msg: String,
-}
+use crate::error::{Error, Result};
 
 /// Writes the three learning curves (stage 1, stage 2, combined) of `report` to `path`.
-pub fn learning_curves(report: &Report, path: &Path) -> Result<(), PlotError> {
-    let err = |e: &dyn std::fmt::Display| PlotError {
-        path: path.display().to_string(),
-        msg: e.to_string(),
-    };
+pub fn learning_curves(report: &Report, path: &Path) -> Result<()> {
+    let err =
+        |e: &dyn std::fmt::Display| Error::Plot(format!("cannot draw {}: {e}", path.display()));
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -39,7 +31,7 @@ pub fn learning_curves(report: &Report, path: &Path) -> Result<(), PlotError> {
     }
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+type DrawResult = std::result::Result<(), Box<dyn std::error::Error>>;
 
 fn draw<DB: DrawingBackend>(report: &Report, root: &DrawingArea<DB, Shift>) -> DrawResult
 where

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::scoring::combined;
+
 /// One trial of the training curve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TrialPoint {
@@ -126,11 +128,6 @@ impl Report {
         self.fine_moves.push(p.stage1_fine_moves);
         self.fine_moves_stage2.push(p.stage2_fine_moves);
     }
-}
-
-/// The combined error of both networks: the norm over the stacked 12 camera coordinates.
-pub fn combined(stage1_px: f32, stage2_px: f32) -> f32 {
-    (stage1_px * stage1_px + stage2_px * stage2_px).sqrt()
 }
 
 /// Mean of the finite values of a slice (0 when there are none). Aborted trials are NaN in

@@ -4,66 +4,12 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use rand_core::{RngCore, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
-
+use super::faults::{BusStats, CorruptScope, FaultConfig, Injector};
 use super::ReceiveTimeout;
 use crate::envelope::BusMode;
 use crate::error::{Error, Result};
-use crate::frame::{fd_len_for, CanFrame};
+use crate::frame::CanFrame;
 use crate::id::CanId;
-
-/// Which frames the corruption injector may corrupt.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum CorruptScope {
-    /// Any frame.
-    #[default]
-    AllFrames,
-    /// Only frames of long (CRC-protected) messages: segments and whole FD frames. Models
-    /// the protocol's threat model: the CAN CRC protects single frames on the wire.
-    LongMessages,
-}
-
-/// Fault probabilities, each applied independently per frame and per receiving port.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct FaultConfig {
-    /// Probability that a receiver does not get the frame.
-    pub drop: f64,
-    /// Probability that a receiver gets the frame twice.
-    pub duplicate: f64,
-    /// Probability that one payload byte is XORed with a random non-zero value.
-    pub corrupt: f64,
-    /// Which frames may be corrupted.
-    pub corrupt_scope: CorruptScope,
-    /// Probability that the payload is cut short (to a valid length for the frame type);
-    /// applies to every frame (every layout has a fixed length, so truncation is always
-    /// detected).
-    pub truncate: f64,
-    /// Probability that delivery is delayed until 1..=`max_delay_frames` later frames
-    /// were sent (this reorders frames).
-    pub delay: f64,
-    /// Longest delay, in frames sent after the delayed one.
-    pub max_delay_frames: u32,
-}
-
-/// Counters of what the bus did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct BusStats {
-    /// Frames accepted for transmission.
-    pub sent: u64,
-    /// Frame copies put into receive queues.
-    pub delivered: u64,
-    /// Copies dropped.
-    pub dropped: u64,
-    /// Extra copies delivered.
-    pub duplicated: u64,
-    /// Copies corrupted.
-    pub corrupted: u64,
-    /// Copies truncated.
-    pub truncated: u64,
-    /// Copies delayed.
-    pub delayed: u64,
-}
 
 #[derive(Debug)]
 struct PortState {
@@ -84,7 +30,7 @@ struct Inner {
     mode: BusMode,
     bus_off: bool,
     faults: FaultConfig,
-    rng: Xoshiro256PlusPlus,
+    inj: Injector,
     ports: Vec<PortState>,
     delayed: Vec<Delayed>,
     stats: BusStats,
@@ -133,7 +79,7 @@ impl InProcBus {
                     mode,
                     bus_off: false,
                     faults: FaultConfig::default(),
-                    rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+                    inj: Injector::new(seed),
                     ports: Vec::new(),
                     delayed: Vec::new(),
                     stats: BusStats::default(),
@@ -218,49 +164,6 @@ fn deliver(inner: &mut Inner, port: usize, frame: CanFrame) {
 }
 
 impl Inner {
-    fn chance(&mut self, p: f64) -> bool {
-        if p <= 0.0 {
-            return false;
-        }
-        // 53 random bits -> [0, 1).
-        let x = (self.rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        x < p
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        if n == 0 {
-            0
-        } else {
-            self.rng.next_u64() % n
-        }
-    }
-
-    fn corrupt(&mut self, frame: &CanFrame) -> CanFrame {
-        if frame.is_empty() {
-            return *frame;
-        }
-        let mut data = [0u8; 64];
-        let len = frame.len();
-        data[..len].copy_from_slice(frame.payload());
-        let i = self.below(len as u64) as usize;
-        data[i] ^= 1 + self.below(255) as u8;
-        CanFrame::new_checked(frame.raw_id(), &data[..len], frame.is_fd()).unwrap_or(*frame)
-    }
-
-    fn truncate(&mut self, frame: &CanFrame) -> CanFrame {
-        if frame.is_empty() {
-            return *frame;
-        }
-        let mut n = self.below(frame.len() as u64) as usize;
-        if frame.is_fd() {
-            while fd_len_for(n) != Some(n) {
-                n -= 1;
-            }
-        }
-        CanFrame::new_checked(frame.raw_id(), &frame.payload()[..n], frame.is_fd())
-            .unwrap_or(*frame)
-    }
-
     fn transmit_from(&mut self, from: usize, frame: &CanFrame) -> Result<()> {
         if self.bus_off {
             return Err(Error::BusOff);
@@ -281,29 +184,29 @@ impl Inner {
                 deliver(self, port, *frame);
                 continue;
             }
-            if self.chance(f.drop) {
+            if self.inj.chance(f.drop) {
                 self.stats.dropped += 1;
                 continue;
             }
             let mut copy = *frame;
             let may_corrupt = f.corrupt_scope == CorruptScope::AllFrames || long;
-            if may_corrupt && self.chance(f.corrupt) {
-                copy = self.corrupt(&copy);
+            if may_corrupt && self.inj.chance(f.corrupt) {
+                copy = self.inj.corrupt(&copy);
                 self.stats.corrupted += 1;
             }
-            if self.chance(f.truncate) {
-                copy = self.truncate(&copy);
+            if self.inj.chance(f.truncate) {
+                copy = self.inj.truncate(&copy);
                 self.stats.truncated += 1;
             }
-            let copies = if self.chance(f.duplicate) {
+            let copies = if self.inj.chance(f.duplicate) {
                 self.stats.duplicated += 1;
                 2
             } else {
                 1
             };
             for _ in 0..copies {
-                if f.max_delay_frames > 0 && self.chance(f.delay) {
-                    let remaining = 1 + self.below(f.max_delay_frames as u64) as u32;
+                if f.max_delay_frames > 0 && self.inj.chance(f.delay) {
+                    let remaining = 1 + self.inj.below(f.max_delay_frames as u64) as u32;
                     self.delayed.push(Delayed {
                         port,
                         frame: copy,

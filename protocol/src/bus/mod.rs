@@ -9,6 +9,7 @@ use std::time::Duration;
 use crate::error::Result;
 use crate::frame::CanFrame;
 
+mod faults;
 mod inproc;
 mod recording;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -16,7 +17,8 @@ mod socketcan;
 
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub use self::socketcan::SocketCanPort;
-pub use inproc::{BusStats, CorruptScope, FaultConfig, InProcBus, InProcPort};
+pub use faults::{BusStats, CorruptScope, FaultConfig};
+pub use inproc::{InProcBus, InProcPort};
 pub use recording::RecordingPort;
 
 /// Blocking receive with a timeout (std transports).

@@ -101,11 +101,6 @@ fn single_message(kind: MessageKind, r: &mut Lcg, round: u64) -> Message {
             detail: r.next() as u32,
         }
         .into(),
-        MessageKind::CheckpointSaved => CheckpointSaved {
-            bytes: r.next() as u32,
-            crc: r.next() as u32,
-        }
-        .into(),
         MessageKind::Heartbeat => Heartbeat {
             counter: r.next() as u8,
             state: [
@@ -177,7 +172,6 @@ pub fn signals(msg: &Message) -> Vec<(&'static str, u64)> {
         Message::ModeChange(m) => vec![("mode", m.mode as u64)],
         Message::GraspRequest(m) => vec![("trial", m.trial as u64)],
         Message::ErrorReport(m) => vec![("code", m.code as u64), ("detail", m.detail as u64)],
-        Message::CheckpointSaved(m) => vec![("bytes", m.bytes as u64), ("crc", m.crc as u64)],
         Message::Heartbeat(m) => vec![("counter", m.counter as u64), ("state", m.state as u64)],
         _ => vec![],
     }

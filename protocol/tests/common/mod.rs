@@ -220,10 +220,6 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
                 )
             }
         ),
-        (any::<u32>(), any::<u32>()).prop_map(|(bytes, crc)| Envelope::new(
-            NodeId::Controller,
-            CheckpointSaved { bytes, crc }.into()
-        )),
     ]
 }
 

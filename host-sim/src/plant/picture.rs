@@ -4,9 +4,9 @@
 use plotters::prelude::*;
 use std::path::Path;
 
-use super::camera::V3;
 use super::joint::Joint;
 use super::kinematics::{forward, lights};
+use super::vec3::V3;
 use super::{Plant, SimConfig};
 
 type R = Result<(), Box<dyn std::error::Error>>;
@@ -82,10 +82,10 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
         chain.wrist,
         chain.pose.centre_mm,
     ];
-    let half = super::camera::scale(&cyl.axis, cyl.length / 2.0);
+    let half = super::vec3::scale(&cyl.axis, cyl.length / 2.0);
     let cyl_ends = [
-        super::camera::add(&cyl.centre, &half),
-        super::camera::sub(&cyl.centre, &half),
+        super::vec3::add(&cyl.centre, &half),
+        super::vec3::sub(&cyl.centre, &half),
     ];
     let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
     root.fill(&WHITE)?;

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use super::SimError;
+use crate::error::Error as SimError;
 
 /// One pneumatic joint: servo drive, hysteresis and dynamics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -7,8 +7,8 @@
 //! the gripper about both of its axes, pitch YY' = (q3 + q4) / 2 and roll XX' = (q3 - q4) / 2;
 //! a pure rotation about either axis needs both pressures.
 
-use super::camera::{add, cross, scale, unit, V3};
 use super::config::SimConfig;
+use super::vec3::{add, angle_deg, cross, norm, scale, sub, unit, V3};
 
 /// The gripper's pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,6 +23,17 @@ pub struct Pose {
     pub normal: V3,
     /// Joint angles (degrees).
     pub joint_angles_deg: [f64; 5],
+}
+
+impl Pose {
+    /// Position (mm) and orientation (degrees: the larger of the approach and normal
+    /// deviations) error of this pose against `target`.
+    pub fn error_to(&self, target: &Pose) -> (f32, f32) {
+        let mm = norm(&sub(&self.centre_mm, &target.centre_mm));
+        let deg = angle_deg(&self.approach, &target.approach)
+            .max(angle_deg(&self.normal, &target.normal));
+        (mm as f32, deg as f32)
+    }
 }
 
 /// Shoulder, elbow, wrist and gripper-centre positions, and the pose.
@@ -91,7 +102,7 @@ pub fn lights(cfg: &SimConfig, pose: &Pose) -> [V3; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::arm::camera::{dot, norm};
+    use crate::plant::vec3::{dot, norm};
 
     #[test]
     fn straight_arm_by_hand() {

@@ -7,7 +7,6 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use embedded_can::blocking::Can;
 use trn_controller::Controller;
 use trn_node::{ControllerNode, NodeConfig, NodeStats};
 use trn_protocol::bus::ReceiveTimeout;
@@ -16,12 +15,35 @@ use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler};
 /// What the loop did.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LoopStats {
-    /// Node counters.
+    /// Node counters (frame errors included).
     pub node: NodeStats,
-    /// Frames received.
-    pub frames_in: u64,
-    /// Frames rejected by the reassembler.
-    pub frame_errors: u64,
+}
+
+/// A blocking port seen through `embedded-can`'s non-blocking trait, with one frame already
+/// waited for: the host loop sleeps in `receive_timeout` instead of spinning, then hands the
+/// port to [`ControllerNode::service`], the code path the firmware runs too.
+struct Waited<'a, P> {
+    port: &'a mut P,
+    first: Option<CanFrame>,
+}
+
+impl<P> embedded_can::nb::Can for Waited<'_, P>
+where
+    P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error>,
+{
+    type Frame = CanFrame;
+    type Error = trn_protocol::Error;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+        self.port.transmit(frame)
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+        match self.first.take() {
+            Some(f) => Ok(f),
+            None => self.port.receive(),
+        }
+    }
 }
 
 /// Runs the controller node on `port` until the runner sends `ModeChange{Idle}` or `stop`
@@ -33,45 +55,27 @@ pub fn run<P>(
     stop: &AtomicBool,
 ) -> LoopResult
 where
-    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+    P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     let start = Instant::now();
     let now_ms = || start.elapsed().as_millis() as u32;
-    let mut node = ControllerNode::new(NodeConfig::default());
+    let mut node = ControllerNode::new(NodeConfig::DEFAULT);
     let mut enc = Encoder::new(mode);
     let mut rx: Reassembler = Reassembler::new(trn_protocol::DEFAULT_STALE_MS);
-    let mut stats = LoopStats::default();
-    let mut tx_err = None;
-    while !stop.load(Ordering::Relaxed) {
-        if let Some(frame) = port.receive_timeout(Duration::from_millis(20))? {
-            stats.frames_in += 1;
-            let mut tx = |f: &CanFrame| {
-                if let Err(e) = port.transmit(f) {
-                    tx_err = Some(e);
-                }
-            };
-            if node
-                .on_frame(&mut ctrl, &mut rx, &mut enc, &frame, now_ms(), &mut tx)
-                .is_err()
-            {
-                stats.frame_errors += 1;
-            }
-            if node.idle_requested() {
-                break;
-            }
-        }
-        let mut tx = |f: &CanFrame| {
-            if let Err(e) = port.transmit(f) {
-                tx_err = Some(e);
-            }
+    while !stop.load(Ordering::Relaxed) && !node.idle_requested() {
+        let first = port.receive_timeout(Duration::from_millis(20))?;
+        let mut waited = Waited {
+            port: &mut port,
+            first,
         };
-        node.poll_frames(&mut ctrl, &mut enc, now_ms(), &mut tx)?;
-        if let Some(e) = tx_err.take() {
-            return Err(e);
-        }
+        node.service(&mut ctrl, &mut rx, &mut enc, &mut waited, now_ms())?;
     }
-    stats.node = *node.stats();
-    Ok((ctrl, stats))
+    Ok((
+        ctrl,
+        LoopStats {
+            node: *node.stats(),
+        },
+    ))
 }
 
 /// What the node's loop hands back: the controller with its learned tables, and counters.
@@ -87,7 +91,10 @@ impl ControllerThread {
     /// Starts the node on `port`.
     pub fn spawn<P>(port: P, ctrl: Box<Controller>, mode: BusMode) -> Self
     where
-        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout + Send + 'static,
+        P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error>
+            + ReceiveTimeout
+            + Send
+            + 'static,
     {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();

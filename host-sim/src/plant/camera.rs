@@ -1,35 +1,7 @@
 //! Calibrated pinhole cameras with optional radial distortion.
 
 use super::config::CameraConfig;
-
-/// A 3-vector (mm).
-pub type V3 = [f64; 3];
-
-pub(crate) fn sub(a: &V3, b: &V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-pub(crate) fn add(a: &V3, b: &V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-pub(crate) fn scale(a: &V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-pub(crate) fn dot(a: &V3, b: &V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-pub(crate) fn cross(a: &V3, b: &V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-pub(crate) fn norm(a: &V3) -> f64 {
-    dot(a, a).sqrt()
-}
-pub(crate) fn unit(a: &V3) -> V3 {
-    scale(a, 1.0 / norm(a))
-}
+use super::vec3::{cross, dot, norm, sub, unit, V3};
 
 /// A pinhole camera: optical axis from its position towards `look_at`, image x to the
 /// right, image y down, principal point at the image centre.

@@ -169,7 +169,7 @@ impl Joint {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::arm::config::SimConfig;
+    use crate::plant::config::SimConfig;
 
     fn sweep(j: &mut Joint, from: f64, to: f64, n: usize) -> Vec<(f64, f64)> {
         (0..=n)

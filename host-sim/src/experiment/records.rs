@@ -1,0 +1,123 @@
+//! What the runner saw of each trial: the target, every capture (a move), the controller's
+//! reports and errors, the grasp score. The run's log is one list of these records; scoring
+//! and the report read them, nothing else keeps parallel lists.
+
+use trn_protocol::TrialReport;
+
+use super::targets::Target;
+use crate::nodes::Capture;
+use crate::plant::GraspScore;
+
+/// What kind of trial to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrialKind {
+    /// Stage 1; `supervised` sends the target pressure (priming).
+    Stage1 {
+        /// Priming step.
+        supervised: bool,
+        /// Update the tables.
+        learn: bool,
+    },
+    /// Stage 2.
+    Stage2 {
+        /// Update the tables.
+        learn: bool,
+    },
+    /// A full grasp of a random cylinder.
+    Grasp {
+        /// Update the tables on the way.
+        learn: bool,
+    },
+}
+
+impl TrialKind {
+    /// True for a grasp.
+    pub fn is_grasp(self) -> bool {
+        matches!(self, TrialKind::Grasp { .. })
+    }
+
+    /// True when the trial runs stage 1.
+    pub fn runs_stage1(self) -> bool {
+        matches!(self, TrialKind::Stage1 { .. } | TrialKind::Grasp { .. })
+    }
+
+    /// True when the trial runs stage 2.
+    pub fn runs_stage2(self) -> bool {
+        matches!(self, TrialKind::Stage2 { .. } | TrialKind::Grasp { .. })
+    }
+}
+
+/// Which part of a run a trial belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Training (learning on).
+    Training,
+    /// Held-out evaluation (no learning).
+    Evaluation,
+    /// Full grasps.
+    Grasping,
+}
+
+/// One trial as the runner saw it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrialRecord {
+    /// Trial number on the bus.
+    pub trial: u32,
+    /// What was asked.
+    pub kind: TrialKind,
+    /// The part of the run.
+    pub phase: Phase,
+    /// The target.
+    pub target: Target,
+    /// Every capture served during the trial, in order: each is one move.
+    pub captures: Vec<Capture>,
+    /// The controller's reports (one per stage run).
+    pub reports: Vec<TrialReport>,
+    /// `ErrorReport`s received during the trial (code, detail).
+    pub errors: Vec<(u16, u32)>,
+    /// The controller aborted the trial (its reason is in `errors`).
+    pub aborted: bool,
+    /// Grasp score at the gripper's close.
+    pub grasp: Option<GraspScore>,
+}
+
+impl TrialRecord {
+    /// The report of stage `stage` (1 also finds a priming report, stage 0).
+    pub fn report(&self, stage: u8) -> Option<&TrialReport> {
+        self.reports.iter().find(|r| match stage {
+            1 => r.stage <= 1,
+            s => r.stage == s,
+        })
+    }
+
+    /// True when any stage ended at the cap on fine moves.
+    pub fn cap_hits(&self) -> usize {
+        self.reports.iter().filter(|r| r.cap_hit).count()
+    }
+}
+
+/// The log of a run: every trial's record, in order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunLog {
+    /// The records.
+    pub trials: Vec<TrialRecord>,
+}
+
+impl RunLog {
+    /// The records of one phase, in order.
+    pub fn phase(&self, phase: Phase) -> impl Iterator<Item = &TrialRecord> {
+        self.trials.iter().filter(move |r| r.phase == phase)
+    }
+
+    /// Stage-1 and stage-2 trials of one phase, paired in the order they ran (the training
+    /// and evaluation loops alternate them).
+    pub fn pairs(&self, phase: Phase) -> Vec<(&TrialRecord, &TrialRecord)> {
+        let ones = self
+            .phase(phase)
+            .filter(|r| matches!(r.kind, TrialKind::Stage1 { .. }));
+        let twos = self
+            .phase(phase)
+            .filter(|r| matches!(r.kind, TrialKind::Stage2 { .. }));
+        ones.zip(twos).collect()
+    }
+}

@@ -1,0 +1,198 @@
+//! The simulated rig on one bus port: the plant with its five servo drives, camera processor
+//! and gripper (the sans-IO nodes of [`crate::nodes`]). It receives frames, reassembles
+//! messages, hands each to the nodes, frames and sends their answers, and reports to the
+//! runner what matters for scoring ([`Event`]).
+
+use std::time::{Duration, Instant};
+
+use embedded_can::blocking::Can;
+use trn_protocol::bus::ReceiveTimeout;
+use trn_protocol::heartbeat::HeartbeatConfig;
+use trn_protocol::{BusMode, CanFrame, Encoder, Envelope, Joint, Message, NodeId, Reassembler};
+
+use crate::error::{Error, Result};
+use crate::nodes::{CameraProcessor, Capture, Gripper, Outbox, ServoDrive};
+use crate::plant::Plant;
+
+/// What the runner is told.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// The camera processor served a capture request (one move of the controller).
+    Captured(Box<Capture>),
+    /// The gripper was commanded (`true`: closed).
+    Gripper(bool),
+    /// A message from the controller that is not for a plant node (reports, errors,
+    /// heartbeats, mode acknowledgements).
+    Controller(Message),
+}
+
+/// Counters of the rig.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RigStats {
+    /// Frames received.
+    pub frames_in: u64,
+    /// Frames sent.
+    pub frames_out: u64,
+    /// Frames rejected by the reassembler (typed errors).
+    pub frame_errors: u64,
+    /// Heartbeats heard from the controller.
+    pub heartbeats: u64,
+}
+
+/// The plant and its nodes on one port.
+pub struct Rig<P> {
+    port: P,
+    plant: Plant,
+    drives: [ServoDrive; 5],
+    camera: CameraProcessor,
+    gripper: Gripper,
+    enc: Encoder,
+    rx: Reassembler,
+    start: Instant,
+    stats: RigStats,
+}
+
+impl<P> Rig<P>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    /// The rig around `plant` on `port`, framing in `mode`; the drives supervise the
+    /// controller's heartbeat with `supervision`.
+    pub fn new(port: P, plant: Plant, mode: BusMode, supervision: HeartbeatConfig) -> Self {
+        let start = Instant::now();
+        Rig {
+            port,
+            plant,
+            drives: Joint::ALL.map(|j| ServoDrive::new(j, supervision, 0)),
+            camera: CameraProcessor::new(),
+            gripper: Gripper::new(),
+            enc: Encoder::new(mode),
+            rx: Reassembler::new(trn_protocol::DEFAULT_STALE_MS),
+            start,
+            stats: RigStats::default(),
+        }
+    }
+
+    /// The plant.
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
+    /// The plant, to set up a trial (targets, start poses) outside the bus.
+    pub fn plant_mut(&mut self) -> &mut Plant {
+        &mut self.plant
+    }
+
+    /// The gripper node.
+    pub fn gripper_mut(&mut self) -> &mut Gripper {
+        &mut self.gripper
+    }
+
+    /// True when servo drive `joint` is in its safe state.
+    pub fn servo_safe(&self, joint: usize) -> bool {
+        self.drives.get(joint).is_some_and(|d| d.is_safe())
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> RigStats {
+        self.stats
+    }
+
+    /// Moves (captures) served.
+    pub fn moves(&self) -> u64 {
+        self.camera.captures()
+    }
+
+    fn now_ms(&self) -> u32 {
+        self.start.elapsed().as_millis() as u32
+    }
+
+    /// Frames and sends a message (the runner's, or a node's answer).
+    pub fn send(&mut self, node: NodeId, msg: Message) -> Result<()> {
+        self.send_env(&Envelope::new(node, msg))
+    }
+
+    fn send_env(&mut self, env: &Envelope) -> Result<()> {
+        for f in &self.enc.encode(env)? {
+            self.port.transmit(f)?;
+            self.stats.frames_out += 1;
+        }
+        Ok(())
+    }
+
+    fn send_all(&mut self, out: &Outbox) -> Result<()> {
+        out.iter().try_for_each(|env| self.send_env(env))
+    }
+
+    /// The drives' timers (heartbeat supervision).
+    fn poll(&mut self) -> Result<()> {
+        let now = self.now_ms();
+        let mut out = Outbox::new();
+        for d in &mut self.drives {
+            d.poll(&mut self.plant, now, &mut out)?;
+        }
+        self.send_all(&out)
+    }
+
+    /// Waits for the next frame, serving the drives' timers meanwhile; `BusSilent` when
+    /// none came within `silence`.
+    fn next_frame(&mut self, silence: Duration) -> Result<CanFrame> {
+        let since = Instant::now();
+        loop {
+            let wait = silence
+                .saturating_sub(since.elapsed())
+                .min(Duration::from_millis(50));
+            let frame = self.port.receive_timeout(wait)?;
+            self.poll()?;
+            if let Some(f) = frame {
+                self.stats.frames_in += 1;
+                return Ok(f);
+            }
+            if since.elapsed() >= silence {
+                return Err(Error::BusSilent(silence.as_secs_f64()));
+            }
+        }
+    }
+
+    /// Serves the bus until something happens that the runner must know about; fails with
+    /// `BusSilent` when no frame at all came for `silence`.
+    pub fn next_event(&mut self, silence: Duration) -> Result<Event> {
+        loop {
+            let frame = self.next_frame(silence)?;
+            let now = self.now_ms();
+            let env = match self.rx.push(&frame, now) {
+                Ok(Some(env)) => env,
+                Ok(None) => continue,
+                Err(_) => {
+                    self.stats.frame_errors += 1;
+                    continue;
+                }
+            };
+            if let Some(event) = self.dispatch(&env, now)? {
+                return Ok(event);
+            }
+        }
+    }
+
+    /// Hands one message to every node and sends their answers.
+    fn dispatch(&mut self, env: &Envelope, now: u32) -> Result<Option<Event>> {
+        let mut out = Outbox::new();
+        for d in &mut self.drives {
+            d.on_message(&mut self.plant, env, now, &mut out)?;
+        }
+        let captured = self.camera.on_message(&mut self.plant, env, &mut out);
+        let gripper = self.gripper.on_message(env, &mut out);
+        self.send_all(&out)?;
+        Ok(match (captured, gripper, env.node) {
+            (Some(c), _, _) => Some(Event::Captured(Box::new(c))),
+            (_, Some(closed), _) => Some(Event::Gripper(closed)),
+            (_, _, NodeId::Controller) => {
+                if matches!(env.msg, Message::Heartbeat(_)) {
+                    self.stats.heartbeats += 1;
+                }
+                Some(Event::Controller(env.msg))
+            }
+            _ => None,
+        })
+    }
+}

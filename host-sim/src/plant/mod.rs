@@ -1,0 +1,226 @@
+//! The SoftArm plant: five hysteretic pneumatic joints behind servo drive units, the arm's
+//! kinematics, two cameras watching its lights, and cylinders to grasp.
+//!
+//! Time advances in fixed physics steps ([`Plant::step`]); a camera reading is taken after
+//! [`Plant::settle`], so residual oscillation is part of the error. Every random draw comes
+//! from a seeded `Xoshiro256PlusPlus`: the same seed gives the same trajectory bit for bit.
+
+pub mod camera;
+pub mod config;
+mod grasp;
+pub mod joint;
+pub mod kinematics;
+#[cfg(feature = "plot")]
+pub mod picture;
+pub mod random;
+mod readings;
+pub mod vec3;
+
+use rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use crate::error::Error;
+use camera::Camera;
+pub use config::{CameraConfig, DriftConfig, JointConfig, SimConfig};
+pub use grasp::{Cylinder, GraspScore};
+use joint::Joint;
+pub use kinematics::{Chain, Pose};
+pub use random::uniform;
+pub use readings::{PixelReading, PointStatus, Readings};
+use vec3::{cross, V3};
+
+/// Servo drive feedback.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServoFeedback {
+    /// Pressure in the tubes, 12-bit.
+    pub raw_pressure: u16,
+    /// The command was clipped to the drive's limit.
+    pub saturated: bool,
+}
+
+/// The plant.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    cfg: SimConfig,
+    joints: Vec<Joint>,
+    cameras: [Camera; 2],
+    noise: Xoshiro256PlusPlus,
+    time_s: f64,
+    cylinder: Option<Cylinder>,
+}
+
+impl Plant {
+    /// A plant at rest at zero pressure; `seed` drives the camera noise.
+    pub fn new(cfg: &SimConfig, seed: u64) -> Result<Plant, Error> {
+        cfg.validate()?;
+        Ok(Plant {
+            joints: cfg.joints.iter().map(Joint::new).collect(),
+            cameras: [Camera::new(&cfg.cameras[0]), Camera::new(&cfg.cameras[1])],
+            noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0CA3_E4A5_0153),
+            time_s: 0.0,
+            cylinder: None,
+            cfg: cfg.clone(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SimConfig {
+        &self.cfg
+    }
+
+    /// Simulated time (s).
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// The joints.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// Servo drive unit of `joint`: a 12-bit pressure command.
+    pub fn servo_command_raw(&mut self, joint: usize, raw: u16) -> Result<ServoFeedback, Error> {
+        let j = self
+            .joints
+            .get_mut(joint)
+            .ok_or(Error::NoSuchJoint(joint))?;
+        let (raw_pressure, saturated) = j.command_raw(raw);
+        Ok(ServoFeedback {
+            raw_pressure,
+            saturated,
+        })
+    }
+
+    /// Commands all five joints (normalised pressures), through the servo drives.
+    pub fn command(&mut self, p: &[f32; 5]) {
+        for (j, &x) in self.joints.iter_mut().zip(p) {
+            j.command_raw(joint::raw_of(x as f64));
+        }
+    }
+
+    /// Commands some joints.
+    pub fn command_joints(&mut self, p: &[(usize, f32)]) {
+        for &(i, x) in p {
+            if let Some(j) = self.joints.get_mut(i) {
+                j.command_raw(joint::raw_of(x as f64));
+            }
+        }
+    }
+
+    /// One physics step.
+    pub fn step(&mut self) {
+        let dt = self.cfg.dt_s;
+        let d = &self.cfg.drift;
+        let temp = if d.temperature {
+            d.temperature_amplitude_deg.to_radians()
+                * (2.0 * std::f64::consts::PI * self.time_s / d.temperature_period_s).sin()
+        } else {
+            0.0
+        };
+        for j in &mut self.joints {
+            let (gain, wear_off) = if d.wear {
+                (
+                    (1.0 - d.wear_gain_per_rad * j.travel).max(0.5),
+                    (d.wear_offset_deg_per_rad * j.travel).to_radians(),
+                )
+            } else {
+                (1.0, 0.0)
+            };
+            j.gain = gain;
+            j.offset = temp + wear_off;
+            j.step(dt);
+        }
+        self.time_s += dt;
+    }
+
+    /// Advances time by `seconds`.
+    pub fn advance(&mut self, seconds: f64) {
+        let n = (seconds / self.cfg.dt_s).round() as usize;
+        for _ in 0..n {
+            self.step();
+        }
+    }
+
+    /// Advances by the configured settle time (a camera reading follows).
+    pub fn settle(&mut self) {
+        self.advance(self.cfg.settle_s);
+    }
+
+    /// Joint angles now (radians).
+    pub fn joint_angles(&self) -> [f64; 5] {
+        let mut q = [0.0; 5];
+        for (a, j) in q.iter_mut().zip(&self.joints) {
+            *a = j.angle();
+        }
+        q
+    }
+
+    /// The arm's chain now.
+    pub fn chain(&self) -> Chain {
+        kinematics::forward(&self.cfg, &self.joint_angles())
+    }
+
+    /// The gripper's pose now (ground truth).
+    pub fn gripper_pose(&self) -> Pose {
+        self.chain().pose
+    }
+
+    /// Random pressures within each joint's target limits ("split brain" targets).
+    pub fn random_pressures(&self, rng: &mut impl RngCore) -> [f32; 5] {
+        let mut p = [0.0f32; 5];
+        for (x, j) in p.iter_mut().zip(&self.cfg.joints) {
+            *x = uniform(rng, -j.target_limit, j.target_limit) as f32;
+        }
+        p
+    }
+
+    /// Commands random pressures to the first `n` joints and settles: "the robot arm went to
+    /// a particular arbitrarily chosen position" before each trial.
+    pub fn move_to_random_joints(&mut self, rng: &mut impl RngCore, n: usize) {
+        let p = self.random_pressures(rng);
+        let cmds: Vec<(usize, f32)> = (0..n.min(5)).map(|i| (i, p[i])).collect();
+        self.command_joints(&cmds);
+        self.settle();
+    }
+
+    /// Position (mm) and orientation (degrees) error of the gripper now against `target`.
+    pub fn pose_error(&self, target: &Pose) -> (f32, f32) {
+        self.gripper_pose().error_to(target)
+    }
+
+    /// Extent (mm) of the gripper centre over `n` random pressure vectors: the 1st to 99th
+    /// percentile along x, y and z, at equilibrium (no dynamics).
+    pub fn workspace_extent(&self, rng: &mut impl RngCore, n: usize) -> [f64; 3] {
+        let mut j: Vec<Joint> = self.cfg.joints.iter().map(Joint::new).collect();
+        let mut xs = [
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        ];
+        for _ in 0..n {
+            let p = self.random_pressures(rng);
+            let mut q = [0.0; 5];
+            for k in 0..5 {
+                j[k].settle_at(p[k] as f64);
+                q[k] = j[k].angle();
+            }
+            let c = kinematics::forward(&self.cfg, &q).pose.centre_mm;
+            for k in 0..3 {
+                xs[k].push(c[k]);
+            }
+        }
+        let mut out = [0.0; 3];
+        for k in 0..3 {
+            xs[k].sort_by(f64::total_cmp);
+            let lo = xs[k][n / 100];
+            let hi = xs[k][n - 1 - n / 100];
+            out[k] = hi - lo;
+        }
+        out
+    }
+
+    /// Perpendicular unit vector helper for pictures.
+    pub fn cross(a: &V3, b: &V3) -> V3 {
+        cross(a, b)
+    }
+}

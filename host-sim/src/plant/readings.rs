@@ -1,0 +1,155 @@
+//! Camera readings of the plant's lights: projection through both cameras, occlusion by the
+//! links, centroid noise.
+
+use super::random::gaussian;
+use super::vec3::{scale, segments_distance, sub, unit, V3};
+use super::{kinematics, Chain, Plant};
+
+/// Why a light has no reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointStatus {
+    /// A valid centroid.
+    Valid,
+    /// Outside the image or behind the camera.
+    OutOfView,
+    /// Hidden behind the arm.
+    Occluded,
+    /// Not detected (unused).
+    NotDetected,
+}
+
+/// One light in one camera (pixels); `x`, `y` are NaN unless valid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelReading {
+    /// Column.
+    pub x: f64,
+    /// Row.
+    pub y: f64,
+    /// Validity.
+    pub status: PointStatus,
+}
+
+/// `K` readings: each light in camera 0, then camera 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Readings<const K: usize> {
+    /// The readings.
+    pub points: [PixelReading; K],
+}
+
+impl<const K: usize> Readings<K> {
+    /// The readings as the controller's input vector, or `None` if any is invalid.
+    pub fn to_vector<const D: usize>(&self) -> Option<[f32; D]> {
+        if D != 2 * K || self.points.iter().any(|p| p.status != PointStatus::Valid) {
+            return None;
+        }
+        let mut v = [0.0; D];
+        for (i, p) in self.points.iter().enumerate() {
+            v[2 * i] = p.x as f32;
+            v[2 * i + 1] = p.y as f32;
+        }
+        Some(v)
+    }
+}
+
+impl Plant {
+    fn read(&mut self, cam: usize, p: &V3, noisy: bool, chain: &Chain) -> PixelReading {
+        let invalid = |status| PixelReading {
+            x: f64::NAN,
+            y: f64::NAN,
+            status,
+        };
+        let camera = &self.cameras[cam];
+        let Some((u, v)) = camera.project(p) else {
+            return invalid(PointStatus::OutOfView);
+        };
+        // hidden behind the upper arm or the forearm (capsules)
+        let eye = camera.position();
+        let r = self.cfg.link_radius_mm;
+        let along = unit(&sub(p, &eye));
+        let near = sub(p, &scale(&along, 2.0 * r)); // stop short of the light itself
+        for (a, b) in [
+            (&chain.shoulder, &chain.elbow),
+            (&chain.elbow, &chain.wrist),
+        ] {
+            if segments_distance(&eye, &near, a, b) < r {
+                return invalid(PointStatus::Occluded);
+            }
+        }
+        let s = self.cfg.pixel_noise_px;
+        let (du, dv) = if noisy {
+            (s * gaussian(&mut self.noise), s * gaussian(&mut self.noise))
+        } else {
+            (0.0, 0.0)
+        };
+        PixelReading {
+            x: u + du,
+            y: v + dv,
+            status: PointStatus::Valid,
+        }
+    }
+
+    fn observe_points<const K: usize>(&mut self, lights: &[V3], noisy: bool) -> Readings<K> {
+        let chain = self.chain();
+        let mut points = [PixelReading {
+            x: f64::NAN,
+            y: f64::NAN,
+            status: PointStatus::NotDetected,
+        }; K];
+        for (i, light) in lights.iter().enumerate() {
+            for cam in 0..2 {
+                if let Some(slot) = points.get_mut(2 * i + cam) {
+                    *slot = self.read(cam, light, noisy, &chain);
+                }
+            }
+        }
+        Readings { points }
+    }
+
+    /// The gripper lights p and q in both cameras (stage 1's 8-D input), with pixel noise.
+    pub fn observe_gripper_lights(&mut self) -> Readings<4> {
+        let l = kinematics::lights(&self.cfg, &self.gripper_pose());
+        self.observe_points(&l, true)
+    }
+
+    /// The same without noise (ground truth).
+    pub fn observe_gripper_lights_true(&mut self) -> Readings<4> {
+        let l = kinematics::lights(&self.cfg, &self.gripper_pose());
+        self.observe_points(&l, false)
+    }
+
+    /// The gripper-centre light in both cameras (stage 2's 4-D input), with pixel noise.
+    pub fn observe_gripper_centre(&mut self) -> Readings<2> {
+        let c = self.gripper_pose().centre_mm;
+        self.observe_points(&[c], true)
+    }
+
+    /// The same without noise.
+    pub fn observe_gripper_centre_true(&mut self) -> Readings<2> {
+        let c = self.gripper_pose().centre_mm;
+        self.observe_points(&[c], false)
+    }
+
+    /// The centre of the cylinder (the middle of its axis ab) in both cameras, with noise.
+    pub fn observe_cylinder_centre(&mut self) -> Readings<2> {
+        self.observe_cylinder(true)
+    }
+
+    /// The same without noise.
+    pub fn observe_cylinder_centre_true(&mut self) -> Readings<2> {
+        self.observe_cylinder(false)
+    }
+
+    fn observe_cylinder(&mut self, noisy: bool) -> Readings<2> {
+        match self.cylinder {
+            Some(c) => self.observe_points(&[c.centre], noisy),
+            None => {
+                let none = PixelReading {
+                    x: f64::NAN,
+                    y: f64::NAN,
+                    status: PointStatus::NotDetected,
+                };
+                Readings { points: [none; 2] }
+            }
+        }
+    }
+}

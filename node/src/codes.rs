@@ -1,0 +1,36 @@
+//! The controller node's `ErrorReport` codes (protocol/SPEC.md, section 7) and the stable
+//! numbers of the controller's errors.
+
+use trn_controller::Error as CtrlError;
+
+/// A trial ended without a result; detail = trial. Always preceded by the reason.
+pub const TRIAL_ABORTED: u16 = 0x0100;
+/// An observation had an invalid point; detail = `point index << 8 | PointStatus as u8`.
+/// The trial is aborted.
+pub const INVALID_OBSERVATION: u16 = 0x0101;
+/// No observation arrived after the capture request and its retries; detail = the
+/// request's sequence number. The trial is aborted.
+pub const OBSERVATION_TIMEOUT: u16 = 0x0102;
+/// The controller rejected an input; detail = the controller error's code (see
+/// [`controller_error_code`]). The trial (if any) is aborted.
+pub const CONTROLLER_ERROR: u16 = 0x0103;
+/// A grasp target arrived without its `GraspRequest` or first half; detail = trial.
+/// Nothing starts.
+pub const OUT_OF_ORDER: u16 = 0x0104;
+/// The outbox overflowed (a bug): detail = messages dropped.
+pub const OUTBOX_FULL: u16 = 0x0105;
+
+/// A stable numeric code for each controller error (sent in `ErrorReport.detail`).
+pub fn controller_error_code(e: &CtrlError) -> u32 {
+    match e {
+        CtrlError::NonFiniteInput { index } => 0x100 | *index as u32,
+        CtrlError::InputOutOfRange { index, .. } => 0x200 | *index as u32,
+        CtrlError::InvalidPressure { index } => 0x300 | *index as u32,
+        CtrlError::ZeroLengthDv => 0x400,
+        CtrlError::UnexpectedObservation => 0x500,
+        CtrlError::WrongObservationKind => 0x600,
+        CtrlError::Busy => 0x700,
+        CtrlError::TargetOutsideLearnedRegion { .. } => 0x800,
+        _ => 0xF00,
+    }
+}
