@@ -5,20 +5,58 @@
 //! | bytes | content |
 //! |---|---|
 //! | 4 | magic `TRNC` |
-//! | varies (postcard) | [`Header`]: format version, network shapes, learning steps |
+//! | varies (postcard) | [`Header`]: format version, network shapes, learning steps, preset, ablation, configuration fingerprint |
 //! | 4 x values (postcard f32) | stage-1 tables, then stage-2 tables: weights, pressures, Jacobians |
 //! | 4 | CRC-32 (ISO-HDLC) over everything before it |
 //!
-//! Restoring checks length, CRC, magic, version and shapes, and decodes into a scratch copy
-//! only after all checks pass; a rejected checkpoint leaves the controller untouched.
+//! Restoring checks length, CRC, magic, version and shapes, the learning-step counters and
+//! every value (finite, within [`VALUE_LIMITS`]) before anything is written; a rejected
+//! checkpoint leaves the controller untouched. The header's preset, ablation and
+//! configuration fingerprint let the caller refuse tables learned under another
+//! configuration ([`Header::config_matches`]).
 
 use crate::controller::Controller;
 use crate::error::{Error, Result};
 use crate::net::{Stage1Net, Stage2Net};
 use serde::{Deserialize, Serialize};
 
-/// The format version this build writes and reads.
-pub const VERSION: u16 = 1;
+/// The format version this build writes and reads (2: provenance in the header).
+pub const VERSION: u16 = 2;
+
+/// The largest learning-step counter a checkpoint may hold: ten times more trials than any
+/// run makes, and far from `u32::MAX`, so that continuing can never wrap.
+pub const T_MAX: u32 = 100_000_000;
+
+/// Bounds on the table values a checkpoint may hold (weights in pixels, pressures, Jacobian
+/// entries): far beyond what learning produces, far below where f32 arithmetic overflows.
+pub const VALUE_LIMITS: (f32, f32, f32) = (1.0e5, 1.0e3, 1.0e3);
+
+/// Where a controller's configuration came from: the wire codes of
+/// [`crate::presets::Preset`] and [`crate::presets::Ablation`], [`Provenance::CUSTOM`]
+/// for a configuration built by hand (tuning, tests).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Preset code.
+    pub preset: u8,
+    /// Ablation code.
+    pub ablation: u8,
+}
+
+impl Provenance {
+    /// A configuration not made by a preset.
+    pub const CUSTOM: Provenance = Provenance {
+        preset: 0xFF,
+        ablation: 0xFF,
+    };
+
+    /// The provenance of a preset and an ablation.
+    pub const fn of(preset: crate::presets::Preset, ablation: crate::presets::Ablation) -> Self {
+        Provenance {
+            preset: preset as u8,
+            ablation: ablation as u8,
+        }
+    }
+}
 const MAGIC: [u8; 4] = *b"TRNC";
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -35,25 +73,44 @@ pub struct Header {
     pub t1: u32,
     /// Stage-2 learning steps completed.
     pub t2: u32,
+    /// The preset and ablation the tables were learned with.
+    pub provenance: Provenance,
+    /// [`crate::Config::fingerprint`] of the configuration they were learned with.
+    pub config_fingerprint: u32,
+}
+
+impl Header {
+    /// True when the tables were learned under `cfg`.
+    pub fn config_matches(&self, cfg: &crate::Config) -> bool {
+        self.config_fingerprint == cfg.fingerprint()
+    }
+}
+
+/// CRC-32/ISO-HDLC of `bytes`.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC.checksum(bytes)
 }
 
 const SHAPE1: [u16; 3] = [1000, 8, 5];
 const SHAPE2: [u16; 3] = [200, 4, 3];
 const VALUES: usize = (Stage1Net::TABLE_BYTES + Stage2Net::TABLE_BYTES) / 4;
-/// Upper bound of a header's postcard encoding (u16 + 6 x u16 + 2 x u32 as varints).
-const HEADER_MAX: usize = 3 + 6 * 3 + 2 * 5;
+/// Upper bound of a header's postcard encoding (u16 + 6 x u16 + 3 x u32 as varints + 2 u8).
+const HEADER_MAX: usize = 3 + 6 * 3 + 3 * 5 + 2;
 
 /// Upper bound of a checkpoint's size in bytes (for buffers).
 pub const MAX_SIZE: usize = 4 + HEADER_MAX + VALUES * 4 + 4;
 
-/// Writes a checkpoint of `ctrl` into `buf` and returns its length.
-pub fn save(ctrl: &Controller, buf: &mut [u8]) -> Result<usize> {
+/// Writes a checkpoint of `ctrl`, whose configuration came from `provenance`, into `buf`
+/// and returns its length.
+pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result<usize> {
     let header = Header {
         version: VERSION,
         shape1: SHAPE1,
         shape2: SHAPE2,
         t1: ctrl.stage1().learning_step(),
         t2: ctrl.stage2().learning_step(),
+        provenance,
+        config_fingerprint: ctrl.config().fingerprint(),
     };
     if buf.len() < 4 {
         return Err(Error::BufferTooSmall { needed: MAX_SIZE });
@@ -81,7 +138,7 @@ pub fn save(ctrl: &Controller, buf: &mut [u8]) -> Result<usize> {
 
 /// Checks a checkpoint without restoring it and returns its header.
 pub fn verify(bytes: &[u8]) -> Result<Header> {
-    if bytes.len() < 8 {
+    if bytes.len() < 8 || bytes.len() > MAX_SIZE {
         return Err(Error::CheckpointLength {
             expected: MAX_SIZE,
             found: bytes.len(),
@@ -116,7 +173,28 @@ pub fn verify(bytes: &[u8]) -> Result<Header> {
     if computed != stored {
         return Err(Error::CheckpointCrc { stored, computed });
     }
+    if header.t1 > T_MAX || header.t2 > T_MAX {
+        return Err(Error::CheckpointContents);
+    }
     Ok(header)
+}
+
+/// Each table's values within [`VALUE_LIMITS`], in checkpoint order (stage 1's weights,
+/// pressures, Jacobians, then stage 2's).
+fn values_within_limits(values: &[u8]) -> bool {
+    let (w, p, a) = VALUE_LIMITS;
+    let tables = |n: usize, d: usize, m: usize| [(n * d, w), (n * m, p), (n * m * d, a)];
+    let [s1, s2] = [tables(1000, 8, 5), tables(200, 4, 3)];
+    let mut chunks = values.chunks_exact(4);
+    for (count, limit) in s1.into_iter().chain(s2) {
+        for c in chunks.by_ref().take(count) {
+            match postcard::from_bytes::<f32>(c) {
+                Ok(x) if x.is_finite() && x.abs() <= limit => {}
+                _ => return false,
+            }
+        }
+    }
+    true
 }
 
 /// Restores both networks from a checkpoint. On any error `ctrl` is left as it was.
@@ -126,13 +204,8 @@ pub fn restore(ctrl: &mut Controller, bytes: &[u8]) -> Result<Header> {
     }
     let header = verify(bytes)?;
     let values = &bytes[bytes.len() - 4 - VALUES * 4..bytes.len() - 4];
-    // every value must be finite before anything is written
-    let all_finite = values.chunks_exact(4).all(|c| {
-        postcard::from_bytes::<f32>(c)
-            .map(|x| x.is_finite())
-            .unwrap_or(false)
-    });
-    if !all_finite {
+    // every value must be finite and within its table's bounds before anything is written
+    if !values_within_limits(values) {
         return Err(Error::CheckpointContents);
     }
     let mut chunks = values.chunks_exact(4);
@@ -164,14 +237,14 @@ mod tests {
     fn round_trip_is_bit_exact() {
         let a = trained();
         let mut buf = vec![0u8; MAX_SIZE];
-        let n = save(&a, &mut buf).unwrap();
+        let n = save(&a, Provenance::CUSTOM, &mut buf).unwrap();
         let mut b = Box::new(Controller::new(Config::project_default()));
         let h = restore(&mut b, &buf[..n]).unwrap();
         assert_eq!(h.shape1, SHAPE1);
         assert!(a.stage1().net() == b.stage1().net());
         assert!(a.stage2().net() == b.stage2().net());
         let mut buf2 = vec![0u8; MAX_SIZE];
-        let n2 = save(&b, &mut buf2).unwrap();
+        let n2 = save(&b, Provenance::CUSTOM, &mut buf2).unwrap();
         assert_eq!(buf[..n], buf2[..n2]);
     }
 
@@ -179,7 +252,7 @@ mod tests {
     fn corrupt_truncated_and_foreign_checkpoints_are_rejected() {
         let a = trained();
         let mut buf = vec![0u8; MAX_SIZE];
-        let n = save(&a, &mut buf).unwrap();
+        let n = save(&a, Provenance::CUSTOM, &mut buf).unwrap();
         let good = buf[..n].to_vec();
         let mut target = Box::new(Controller::new(Config::project_default()));
         target.init_random(99);
@@ -221,9 +294,48 @@ mod tests {
         let crc = CRC.checksum(&nan[..n - 4]);
         nan[n - 4..].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(restore(&mut target, &nan), Err(Error::CheckpointContents));
+        // absurd but finite values (3e38) with a valid CRC
+        let mut huge = good.clone();
+        huge[hl..hl + 4].copy_from_slice(&3.0e38f32.to_le_bytes());
+        let crc = CRC.checksum(&huge[..n - 4]);
+        huge[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(restore(&mut target, &huge), Err(Error::CheckpointContents));
+        // a learning step that would wrap when continued
+        let mut late = Box::new(Controller::new(Config::project_default()));
+        late.init_random(11);
+        late.parts_mut().0.restore_parts(u32::MAX);
+        let mut lbuf = vec![0u8; MAX_SIZE];
+        let ln = save(&late, Provenance::CUSTOM, &mut lbuf).unwrap();
+        assert_eq!(
+            restore(&mut target, &lbuf[..ln]),
+            Err(Error::CheckpointContents)
+        );
+        // longer than any checkpoint
+        assert!(matches!(
+            restore(&mut target, &vec![0u8; MAX_SIZE + 1]),
+            Err(Error::CheckpointLength { .. })
+        ));
         assert!(
             target.stage1().net() == &before,
             "a rejected checkpoint changed the tables"
+        );
+    }
+
+    #[test]
+    fn the_header_records_provenance_and_configuration() {
+        let a = trained();
+        let mut buf = vec![0u8; MAX_SIZE];
+        let prov = Provenance::of(
+            crate::presets::Preset::Lifelong,
+            crate::presets::Ablation::NoPriming,
+        );
+        let n = save(&a, prov, &mut buf).unwrap();
+        let h = verify(&buf[..n]).unwrap();
+        assert_eq!(h.provenance, prov);
+        assert!(h.config_matches(a.config()));
+        assert!(
+            !h.config_matches(&Config::paper()),
+            "another configuration is told apart"
         );
     }
 
@@ -232,7 +344,7 @@ mod tests {
         let a = trained();
         let mut buf = vec![0u8; 100];
         assert!(matches!(
-            save(&a, &mut buf),
+            save(&a, Provenance::CUSTOM, &mut buf),
             Err(Error::BufferTooSmall { .. })
         ));
     }

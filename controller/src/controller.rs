@@ -2,7 +2,7 @@
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::stage::{Stage, StageOutcome, StageStep};
+use crate::stage::{FineMoves, Stage, StageOutcome, StageStep};
 
 /// Ranks that carry weight in the averages and updates (see [`crate::rules`]).
 pub const RANKS: usize = 128;
@@ -142,6 +142,8 @@ pub struct Controller {
     stage1_done: bool,
     /// Last pressures commanded to each joint.
     held: [f32; JOINTS],
+    /// The fine-move rule of the task in progress (a grasp's stage 2 uses it too).
+    fine: FineMoves,
 }
 
 impl Controller {
@@ -157,6 +159,7 @@ impl Controller {
             stage1_outcome: crate::stage::ZERO_OUTCOME,
             stage1_done: false,
             held: [0.0; JOINTS],
+            fine: FineMoves::Policy,
         }
     }
 
@@ -225,19 +228,29 @@ impl Controller {
         self.running = Running::Idle;
     }
 
-    /// Starts a task and returns its first command.
+    /// Starts a task and returns its first command; fine moves by the controller's rule
+    /// (tolerance and cap).
     pub fn begin(&mut self, task: Task) -> Result<Command> {
+        self.begin_with(task, FineMoves::Policy)
+    }
+
+    /// Starts a task whose stages make `fine` fine moves: the controller's rule, or exactly
+    /// `n` (the evaluation's fixed move budget).
+    pub fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command> {
         if self.busy() {
             return Err(Error::Busy);
         }
         self.stage1_done = false;
+        self.fine = fine;
         match task {
             Task::Stage1 {
                 v,
                 supervised,
                 learn,
             } => {
-                let p = self.stage1.begin(&v, supervised.as_ref(), learn)?;
+                let p = self
+                    .stage1
+                    .begin_with(&v, supervised.as_ref(), learn, fine)?;
                 self.running = Running::Stage1;
                 Ok(self.move1(p))
             }
@@ -245,7 +258,7 @@ impl Controller {
             Task::Grasp { v, c, learn } => {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
                 self.stage2.check_input(&c)?;
-                let p = self.stage1.begin(&v, None, learn)?;
+                let p = self.stage1.begin_with(&v, None, learn, fine)?;
                 self.grasp_c = c;
                 self.running = Running::GraspStage1;
                 Ok(self.move1(p))
@@ -254,7 +267,7 @@ impl Controller {
     }
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
-        let p = self.stage2.begin(c, None, learn)?;
+        let p = self.stage2.begin_with(c, None, learn, self.fine)?;
         self.running = Running::Stage2;
         Ok(self.move2(p))
     }

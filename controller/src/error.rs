@@ -27,6 +27,8 @@ pub enum Error {
     /// The Jacobian rule (8.15)/(8.21) divides by `||dv||^2`, and `dv` was (almost) zero.
     /// The update is skipped; the state machine counts it and carries on.
     ZeroLengthDv,
+    /// A fixed budget of fine moves beyond what a trial can trace (31).
+    FineMoveBudget,
     /// An observation arrived while none was awaited.
     UnexpectedObservation,
     /// The observation is of the wrong kind (lights when the centre was awaited, or the reverse).
@@ -87,6 +89,7 @@ impl fmt::Display for Error {
                 )
             }
             Error::ZeroLengthDv => write!(f, "zero-length dv: Jacobian update skipped"),
+            Error::FineMoveBudget => write!(f, "a fixed budget of fine moves is at most 31"),
             Error::UnexpectedObservation => {
                 write!(f, "observation received while none was awaited")
             }

@@ -40,4 +40,4 @@ pub use controller::{
 };
 pub use error::{Error, Result};
 pub use net::{Stage1Net, Stage2Net, Trn};
-pub use stage::{StageOutcome, StageStep};
+pub use stage::{FineMoves, StageOutcome, StageStep};

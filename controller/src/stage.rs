@@ -70,11 +70,26 @@ enum Phase {
     AwaitFine,
 }
 
+/// How many fine moves a trial makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum FineMoves {
+    /// The controller's rule: fine moves until the error is within the tolerance (8.7), at
+    /// most [`StageConfig::max_fine_moves`].
+    #[default]
+    Policy,
+    /// Exactly this many fine moves, never stopping early (at most [`TRACE_LEN`] - 1): the
+    /// evaluation's fixed move budget, so every trial's error is known after every move.
+    Exactly(u8),
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Trial<const D: usize, const M: usize> {
     target: [f32; D],
     p_target: Option<[f32; M]>,
     learn: bool,
+    /// A fixed budget of fine moves, if one was asked for.
+    exact: Option<u8>,
     /// Coarse pressure P_bar (substep 4).
     p_bar: [f32; M],
     /// Pressure applied before the last one, and the position it reached.
@@ -119,6 +134,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 target: [0.0; D],
                 p_target: None,
                 learn: false,
+                exact: None,
                 p_bar: [0.0; M],
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
@@ -226,6 +242,17 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         p_target: Option<&[f32; M]>,
         learn: bool,
     ) -> Result<[f32; M]> {
+        self.begin_with(target, p_target, learn, FineMoves::Policy)
+    }
+
+    /// [`Stage::begin`] with a choice of how many fine moves the trial makes.
+    pub fn begin_with(
+        &mut self,
+        target: &[f32; D],
+        p_target: Option<&[f32; M]>,
+        learn: bool,
+        fine: FineMoves,
+    ) -> Result<[f32; M]> {
         if self.phase != Phase::Idle {
             return Err(Error::Busy);
         }
@@ -238,9 +265,14 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             }
         }
         let learn = learn || p_target.is_some();
+        let exact = match fine {
+            FineMoves::Policy => None,
+            FineMoves::Exactly(n) if (n as usize) < TRACE_LEN => Some(n),
+            FineMoves::Exactly(_) => return Err(Error::FineMoveBudget),
+        };
         self.ranking
             .compute(&self.net.w, target, &mut self.scratch, self.rank_mode);
-        self.begin_ranked(target, p_target, learn)
+        self.begin_ranked(target, p_target, learn, exact)
     }
 
     fn begin_ranked(
@@ -248,6 +280,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         target: &[f32; D],
         p_target: Option<&[f32; M]>,
         learn: bool,
+        exact: Option<u8>,
     ) -> Result<[f32; M]> {
         if !learn {
             let distance = self.ranking.distance(0);
@@ -255,7 +288,11 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 return Err(Error::TargetOutsideLearnedRegion { distance });
             }
         }
-        let t = if learn { self.t + 1 } else { self.t };
+        let t = if learn {
+            self.t.saturating_add(1)
+        } else {
+            self.t
+        };
         let tolerance = if learn {
             self.cfg.tolerance.at(t)
         } else {
@@ -295,6 +332,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             target: *target,
             p_target: p_target.copied(),
             learn,
+            exact,
             p_bar,
             p_prev: p_bar,
             v_prev: [0.0; D],
@@ -341,10 +379,16 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                         v,
                     );
                 }
-                let must_refine = tr.learn && self.cfg.min_fine_moves_learning > 0;
                 let over = d > tr.outcome.tolerance;
-                if (!over && !must_refine) || self.cfg.max_fine_moves == 0 {
-                    return Ok(self.finish(d, over));
+                match tr.exact {
+                    Some(0) => return Ok(self.finish(d, over)),
+                    Some(_) => {}
+                    None => {
+                        let must_refine = tr.learn && self.cfg.min_fine_moves_learning > 0;
+                        if (!over && !must_refine) || self.cfg.max_fine_moves == 0 {
+                            return Ok(self.finish(d, over));
+                        }
+                    }
                 }
             }
             Phase::AwaitFine => {
@@ -375,13 +419,19 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     }
                 }
                 let fine = tr.outcome.fine_moves;
-                let enough = fine >= self.cfg.min_fine_moves_learning || !tr.learn;
-                if d <= tr.outcome.tolerance && enough {
-                    return Ok(self.finish(d, false));
-                }
                 let over = d > tr.outcome.tolerance;
-                if fine >= self.cfg.max_fine_moves || fine as usize >= TRACE_LEN - 1 {
-                    return Ok(self.finish(d, over));
+                if let Some(n) = tr.exact {
+                    if fine >= n {
+                        return Ok(self.finish(d, over));
+                    }
+                } else {
+                    let enough = fine >= self.cfg.min_fine_moves_learning || !tr.learn;
+                    if !over && enough {
+                        return Ok(self.finish(d, false));
+                    }
+                    if fine >= self.cfg.max_fine_moves || fine as usize >= TRACE_LEN - 1 {
+                        return Ok(self.finish(d, over));
+                    }
                 }
             }
             Phase::Idle => return Err(Error::UnexpectedObservation),

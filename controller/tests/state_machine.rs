@@ -207,3 +207,52 @@ fn learning_steps_count_and_the_tolerance_schedule_applies() {
     }
     assert_eq!(c.stage2().learning_step(), 3);
 }
+
+/// The evaluation's fixed move budget: exactly `n` fine moves, even when every reading is
+/// on target (the controller's rule would stop at once), for a grasp's two stages too.
+#[test]
+fn a_fixed_budget_makes_exactly_its_fine_moves() {
+    use trn_controller::FineMoves;
+    let count = |c: &mut Controller, task: Task, fine: FineMoves| -> (u8, Option<u8>) {
+        let mut cmd = c.begin_with(task, fine).unwrap();
+        loop {
+            match cmd {
+                Command::Move { observe, .. } => {
+                    let obs = match observe {
+                        ObserveKind::Lights => Observation::Lights(V),
+                        ObserveKind::Centre => Observation::Centre(C),
+                    };
+                    cmd = c.observe(obs).unwrap();
+                }
+                Command::Done(o) => {
+                    let s1 = o.stage1.map(|s| s.fine_moves).unwrap_or(0);
+                    return (s1, o.stage2.map(|s| s.fine_moves));
+                }
+            }
+        }
+    };
+    let mut c = ctrl();
+    let stage1 = Task::Stage1 {
+        v: V,
+        supervised: None,
+        learn: false,
+    };
+    assert_eq!(
+        count(&mut c, stage1, FineMoves::Policy).0,
+        0,
+        "on target: stops"
+    );
+    assert_eq!(count(&mut c, stage1, FineMoves::Exactly(4)).0, 4);
+    assert_eq!(count(&mut c, stage1, FineMoves::Exactly(0)).0, 0);
+    let grasp = Task::Grasp {
+        v: V,
+        c: C,
+        learn: false,
+    };
+    assert_eq!(count(&mut c, grasp, FineMoves::Exactly(3)), (3, Some(3)));
+    assert_eq!(
+        c.begin_with(stage1, FineMoves::Exactly(32)),
+        Err(Error::FineMoveBudget)
+    );
+    assert!(!c.busy(), "a rejected budget starts nothing");
+}

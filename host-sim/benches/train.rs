@@ -12,22 +12,7 @@ fn train(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function(
         "default train run (300 trials per network + eval + grasps, inproc bus)",
-        |b| {
-            b.iter(|| {
-                run_plan(
-                    &common,
-                    Plan {
-                        trials: 300,
-                        eval_targets: 100,
-                        grasps: 50,
-                    },
-                    None,
-                    None,
-                    "bench",
-                )
-                .unwrap()
-            })
-        },
+        |b| b.iter(|| run_plan(&common, Plan::new(300, 100, 50), None, None, "bench").unwrap()),
     );
     g.finish();
 }

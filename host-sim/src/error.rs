@@ -46,6 +46,16 @@ pub enum Error {
         /// What is wrong.
         source: trn_controller::Error,
     },
+    /// More than a tenth of the evaluation's trials failed: its figures would mean little.
+    #[error("{failed} of {trials} evaluation trials failed (more than 10 %): {reasons}")]
+    TooManyFailures {
+        /// Failed evaluation trials.
+        failed: usize,
+        /// Evaluation trials.
+        trials: usize,
+        /// The reasons, counted.
+        reasons: String,
+    },
     /// Plotting.
     #[error("plot: {0}")]
     Plot(String),

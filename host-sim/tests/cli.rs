@@ -52,6 +52,7 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
         plot.to_str().unwrap(),
     );
     args.extend(["--checkpoint-out", c, "--report", r, "--plot", p]);
+    args.extend(["--snapshot-every", "10", "--snapshot-targets", "2"]);
     let out = trn(&args);
     assert!(
         out.status.success(),
@@ -81,9 +82,35 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
         "error_deg",
         "preset",
         "wall_s",
+        "learning_curve",
+        "failed_trials",
+        "failures",
     ] {
         assert!(json.get(key).is_some(), "report lacks {key}");
     }
+    // the names outside checks read (issue 11), with one entry per move of the budget
+    let d = &json["deployment"];
+    for key in [
+        "stage1_true_px",
+        "stage2_true_px",
+        "combined_true_px",
+        "stage1_measured_px",
+        "stage2_measured_px",
+        "combined_measured_px",
+    ] {
+        assert_eq!(d[key].as_array().map(Vec::len), Some(7), "deployment.{key}");
+    }
+    for key in [
+        "targets",
+        "fine_moves",
+        "noise_floor_px",
+        "moves_to_2px_mean",
+        "failed_trials",
+    ] {
+        assert!(d.get(key).is_some(), "deployment lacks {key}");
+    }
+    let curve = json["learning_curve"].as_array().unwrap();
+    assert!(!curve.is_empty() && curve[0].get("stage1_true_px").is_some());
     assert_eq!(json["stage1_error_px"].as_array().unwrap().len(), 20);
     assert!(
         std::fs::metadata(&plot).unwrap().len() > 10_000,
@@ -95,12 +122,19 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
         c,
         "--eval-targets",
         "3",
+        "--fine-moves",
+        "4",
         "--quiet",
     ]);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("coarse move + 4 fine moves") && stdout.contains("combined, noise-free"),
+        "the by-move table: {stdout}"
     );
     let out = trn(&["grasp", "--checkpoint-in", c, "--grasps", "2", "--quiet"]);
     assert!(
@@ -167,4 +201,37 @@ fn a_bus_that_does_not_exist_fails_and_keeps_the_last_checkpoint() {
         "carrier-pigeon",
     );
     assert_eq!(std::fs::read(&ckpt).unwrap(), b"previous checkpoint");
+}
+
+/// A usage error: clap's clear message naming the argument, exit code 2, never a panic.
+fn usage_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(needle), "stderr lacks {needle:?}: {err}");
+}
+
+#[test]
+fn meaningless_numbers_are_usage_errors() {
+    for t in ["-1", "nan", "inf", "1e300", "0"] {
+        let arg = format!("--bus-timeout-s={t}");
+        usage_error(&trn(&["train", &arg, "--quiet"]), "--bus-timeout-s");
+    }
+    usage_error(&trn(&["train", "--trials", "0", "--quiet"]), "--trials");
+    usage_error(&trn(&["compare", "--seeds", "0"]), "--seeds");
+    usage_error(
+        &trn(&["train", "--fine-moves", "32", "--quiet"]),
+        "--fine-moves",
+    );
+}
+
+#[test]
+fn outputs_that_cannot_be_written_fail_before_the_run() {
+    // before the run: nothing was trained, so no summary was printed
+    let out = trn(&["train", "--checkpoint-out", "/tmp", "--quiet"]);
+    fails_with(&out, "is a directory");
+    assert!(out.stdout.is_empty(), "the run went ahead");
+    assert!(!std::path::Path::new("/tmp.tmp").exists());
+    let out = trn(&["train", "--report", "/nonexistent/dir/r.json", "--quiet"]);
+    fails_with(&out, "/nonexistent/dir");
+    assert!(out.stdout.is_empty(), "the run went ahead");
 }

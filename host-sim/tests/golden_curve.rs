@@ -21,10 +21,11 @@ fn a_short_run_reproduces_the_recorded_curve_bit_for_bit() {
         grasps: 4,
         ..Common::inproc(3, Preset::Project, Ablation::None)
     };
+    // snapshots every 10 trials: they must not change the training curve
     let plan = Plan {
-        trials: 40,
-        eval_targets: 10,
-        grasps: 4,
+        snapshot_every: 10,
+        snapshot_targets: 5,
+        ..Plan::new(40, 10, 4)
     };
     let r = run_plan(&common, plan, None, None, "golden").unwrap();
     let now = serde_json::json!({
@@ -43,6 +44,9 @@ fn a_short_run_reproduces_the_recorded_curve_bit_for_bit() {
         "error_deg": r.error_deg,
         "eval_stage1_error_by_move_px": r.eval.stage1_error_by_move_px,
         "eval_stage2_error_by_move_px": r.eval.stage2_error_by_move_px,
+        "deployment_combined_true_px": r.deployment.combined_true_px,
+        "deployment_combined_measured_px": r.deployment.combined_measured_px,
+        "snapshot_combined_true_px": r.learning_curve.iter().flat_map(|p| p.combined_true_px.clone()).collect::<Vec<_>>(),
     });
     if std::env::var_os("TRN_BLESS").is_some() {
         std::fs::write(fixture(), serde_json::to_string_pretty(&now).unwrap()).unwrap();

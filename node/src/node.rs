@@ -1,7 +1,9 @@
 //! The controller node's state machine: protocol messages in, controller calls, protocol
 //! messages out.
 
-use trn_controller::{Command, Controller, Error as CtrlError, ObserveKind, Outcome, Task};
+use trn_controller::{
+    Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
+};
 use trn_protocol as proto;
 use trn_protocol::{
     CanFrame, CaptureKind, CaptureRequest, Encoder, Envelope, ErrorReport, GripperCommand,
@@ -61,6 +63,15 @@ pub struct ControllerNode {
     heartbeat_counter: u8,
     idle_requested: bool,
     stats: NodeStats,
+}
+
+/// The controller's fine-move rule for a target's `fine_moves` field.
+fn fine_moves(n: u8) -> FineMoves {
+    if n == proto::FINE_MOVES_POLICY {
+        FineMoves::Policy
+    } else {
+        FineMoves::Exactly(n)
+    }
 }
 
 fn out_of_order(out: &mut Outbox, trial: u32) {
@@ -244,6 +255,7 @@ impl ControllerNode {
                         supervised,
                         learn: self.learns(t.learn),
                     },
+                    fine_moves(t.fine_moves),
                     now_ms,
                     out,
                 );
@@ -256,7 +268,8 @@ impl ControllerNode {
                             learn,
                             v: Some(v),
                         }) if trial == t.trial => {
-                            self.start(ctrl, trial, Task::Grasp { v, c: t.c, learn }, now_ms, out)
+                            let task = Task::Grasp { v, c: t.c, learn };
+                            self.start(ctrl, trial, task, fine_moves(t.fine_moves), now_ms, out)
                         }
                         _ => out_of_order(out, t.trial),
                     }
@@ -269,6 +282,7 @@ impl ControllerNode {
                         c: t.c,
                         learn: self.learns(t.learn),
                     },
+                    fine_moves(t.fine_moves),
                     now_ms,
                     out,
                 );
@@ -308,6 +322,7 @@ impl ControllerNode {
         ctrl: &mut Controller,
         trial: u32,
         task: Task,
+        fine: FineMoves,
         now_ms: u32,
         out: &mut Outbox,
     ) {
@@ -319,7 +334,7 @@ impl ControllerNode {
         self.trial = Some(trial);
         self.awaiting = None;
         self.stats.trials += 1;
-        match ctrl.begin(task) {
+        match ctrl.begin_with(task, fine) {
             Ok(cmd) => self.execute(ctrl, cmd, now_ms, out),
             Err(e) => self.reject(ctrl, e, out),
         }

@@ -96,6 +96,7 @@ fn a_supervised_trial_runs_to_its_report() {
                 trial: 7,
                 learn: true,
                 grasp: false,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 v: V,
             }
             .into(),
@@ -136,6 +137,7 @@ fn invalid_points_abort_the_trial_with_reasons() {
                 trial: 3,
                 learn: true,
                 grasp: false,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 c: C,
             }
             .into(),
@@ -187,6 +189,7 @@ fn stale_and_foreign_observations_are_ignored_and_lost_ones_retried() {
                 trial: 1,
                 learn: false,
                 grasp: false,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 v: V,
             }
             .into(),
@@ -238,6 +241,7 @@ fn non_finite_targets_are_rejected_with_a_report() {
                 trial: 4,
                 learn: true,
                 grasp: false,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 v,
             }
             .into(),
@@ -268,6 +272,7 @@ fn a_grasp_moves_stage_1_then_stage_2_then_closes() {
                 trial: 9,
                 learn: false,
                 grasp: true,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 v: V,
             }
             .into(),
@@ -286,6 +291,7 @@ fn a_grasp_moves_stage_1_then_stage_2_then_closes() {
                 trial: 9,
                 learn: false,
                 grasp: true,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 c: C,
             }
             .into(),

@@ -278,6 +278,7 @@ mod tests {
                 trial,
                 learn: true,
                 grasp: false,
+                fine_moves: crate::FINE_MOVES_POLICY,
                 v: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0],
             }),
         )
@@ -404,6 +405,7 @@ mod tests {
                 trial: 1,
                 learn: false,
                 grasp: true,
+                fine_moves: crate::FINE_MOVES_POLICY,
                 c: [0.0; 4],
             }),
         ));

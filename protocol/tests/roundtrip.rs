@@ -138,6 +138,7 @@ fn out_of_range_values_are_rejected_on_encode_and_decode() {
             trial: 1,
             learn: true,
             grasp: false,
+            fine_moves: trn_protocol::FINE_MOVES_POLICY,
             c: [f32::NAN, 0.0, 0.0, 0.0],
         }
         .into(),
@@ -145,6 +146,22 @@ fn out_of_range_values_are_rejected_on_encode_and_decode() {
     assert_eq!(
         encode(&nan, BusMode::Fd, 0, &mut frames),
         Err(Error::OutOfRange("c"))
+    );
+    // A fine-move budget beyond the limit.
+    let budget = Envelope::new(
+        NodeId::Controller,
+        Stage2Target {
+            trial: 1,
+            learn: false,
+            grasp: false,
+            fine_moves: trn_protocol::FINE_MOVES_MAX + 1,
+            c: [0.0; 4],
+        }
+        .into(),
+    );
+    assert_eq!(
+        encode(&budget, BusMode::Fd, 0, &mut frames),
+        Err(Error::OutOfRange("fine_moves"))
     );
     // Wrong node for the kind.
     let wrong = Envelope::new(NodeId::Gripper, PressureCommand { seq: 0, raw: 1 }.into());
@@ -180,8 +197,8 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::Observation, 39),
         (MessageKind::ModeChange, 1),
         (MessageKind::SupervisedPressure, 24),
-        (MessageKind::Stage1Target, 38),
-        (MessageKind::Stage2Target, 22),
+        (MessageKind::Stage1Target, 39),
+        (MessageKind::Stage2Target, 23),
         (MessageKind::GraspRequest, 4),
         (MessageKind::TrialReport, 15),
         (MessageKind::ErrorReport, 6),

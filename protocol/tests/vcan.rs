@@ -72,6 +72,7 @@ fn traffic() -> Vec<Envelope> {
                 trial: 77,
                 learn: true,
                 grasp: false,
+                fine_moves: trn_protocol::FINE_MOVES_POLICY,
                 v: [10.0; 8],
             }
             .into(),

@@ -13,11 +13,7 @@ fn common(seed: u64, fd: bool) -> Common {
     }
 }
 
-const PLAN: Plan = Plan {
-    trials: 60,
-    eval_targets: 5,
-    grasps: 3,
-};
+const PLAN: Plan = Plan::new(60, 5, 3);
 
 #[test]
 fn same_seed_same_learning_curve_bit_for_bit() {
@@ -43,27 +39,32 @@ fn can_fd_carries_the_same_learning_curve_as_can_2_0() {
 
 #[test]
 fn training_learns_and_grasps_are_scored() {
-    let r = run_plan(
-        &common(1, false),
-        Plan {
-            trials: 120,
-            eval_targets: 10,
-            grasps: 5,
-        },
-        None,
-        None,
-        "test",
-    )
-    .unwrap();
-    let early: f32 = r.combined_error_px[..20].iter().sum::<f32>() / 20.0;
-    let late: f32 = r.combined_error_px[100..].iter().sum::<f32>() / 20.0;
+    let r = run_plan(&common(1, false), Plan::new(120, 10, 5), None, None, "test").unwrap();
+    // Learning measured on frozen networks with a fixed move budget, not on end-of-trial
+    // errors (those follow the tolerance schedule whether or not anything is learned):
+    // fails when the tables do not learn.
+    let coarse = |i: usize| r.learning_curve[i].combined_true_px[0];
+    let after2 = |i: usize| r.learning_curve[i].combined_true_px[2];
+    let last = r.learning_curve.len() - 1;
+    assert_eq!(r.learning_curve.len(), 120 / 25);
     assert!(
-        late < early / 2.0,
-        "no learning: early {early} px, late {late} px"
+        coarse(last) < 0.8 * coarse(0),
+        "the coarse move did not learn: {} -> {} px",
+        coarse(0),
+        coarse(last)
     );
-    assert_eq!(r.grasp.grasps, 5);
-    assert!(r.noise_floor_px > 0.0);
-    assert!(r.final_error_px.is_finite());
+    assert!(
+        after2(last) < after2(0) / 2.0,
+        "{} -> {} px",
+        after2(0),
+        after2(last)
+    );
+    // the fixed budget was made: 1 + 6 moves per trial
+    assert_eq!(r.deployment.combined_true_px.len(), 7);
+    // every grasp is a success or a failure with a cause
+    let failed: usize = r.grasp.failure_causes.values().sum();
+    let succeeded = (r.grasp_success_rate * 5.0).round() as usize;
+    assert_eq!(succeeded + failed, 5, "{:?}", r.grasp.failure_causes);
 }
 
 #[test]

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 use rand_core::RngCore;
+use trn_controller::FineMoves;
 use trn_controller::{Command, Controller, Observation, Outcome, Task};
 
 /// The "plant": a smooth nonlinear map from 5 pressures in [-1, 1] to 8 pixel coordinates
@@ -44,7 +45,12 @@ pub fn dist(a: &[f32; 8], b: &[f32; 8]) -> f32 {
 
 /// Runs one task against the plant to its end.
 pub fn run(ctrl: &mut Controller, task: Task) -> Outcome {
-    let mut cmd = ctrl.begin(task).expect("begin");
+    run_with(ctrl, task, FineMoves::Policy)
+}
+
+/// [`run`] with a choice of fine moves.
+pub fn run_with(ctrl: &mut Controller, task: Task, fine: FineMoves) -> Outcome {
+    let mut cmd = ctrl.begin_with(task, fine).expect("begin");
     loop {
         match cmd {
             Command::Move { pressures, .. } => {

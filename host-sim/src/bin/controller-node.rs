@@ -35,6 +35,9 @@ struct Args {
     /// Save the networks here at the end (atomically).
     #[arg(long)]
     checkpoint_out: Option<PathBuf>,
+    /// Use a checkpoint learned under another configuration.
+    #[arg(long)]
+    allow_config_change: bool,
 }
 
 #[cfg(target_os = "linux")]
@@ -43,12 +46,14 @@ fn run(a: &Args) -> Result<(), String> {
     use trn_sim::experiment::run::{controller_config, load_sim_config};
     use trn_sim::transport::controller_loop;
     let sim = load_sim_config(a.config.as_deref()).map_err(|e| e.to_string())?;
+    let provenance = trn_controller::checkpoint::Provenance::of(a.preset.into(), a.ablation.into());
     let mut ctrl = Box::new(trn_controller::Controller::new(controller_config(
         a.preset, a.ablation, &sim,
     )));
     ctrl.init_random(a.seed);
     if let Some(p) = &a.checkpoint_in {
-        checkpoint_file::load(&mut ctrl, p).map_err(|e| e.to_string())?;
+        checkpoint_file::load(&mut ctrl, p, provenance, a.allow_config_change)
+            .map_err(|e| e.to_string())?;
     }
     let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
         .map_err(|e| format!("{}: {e}", a.iface))?;
@@ -64,7 +69,7 @@ fn run(a: &Args) -> Result<(), String> {
         stats.node.trials, stats.node.aborted, stats.node.frame_errors
     );
     if let Some(p) = &a.checkpoint_out {
-        checkpoint_file::save(&ctrl, p).map_err(|e| e.to_string())?;
+        checkpoint_file::save(&ctrl, provenance, p).map_err(|e| e.to_string())?;
     }
     Ok(())
 }

@@ -12,11 +12,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Cmd::Train(a) => {
-            let plan = Plan {
-                trials: a.trials,
-                eval_targets: a.common.eval_targets,
-                grasps: a.common.grasps,
-            };
+            let plan = a.common.plan(a.trials as usize);
             run_plan(
                 &a.common,
                 plan,
@@ -24,25 +20,23 @@ fn main() -> ExitCode {
                 a.checkpoint_out.as_deref(),
                 "train",
             )
-            .map(|r| summary::print(&r, true))
+            .and_then(|r| summary::print(&r, true))
         }
         Cmd::Eval(a) => {
             let plan = Plan {
-                trials: 0,
-                eval_targets: a.common.eval_targets,
                 grasps: 0,
+                ..a.common.plan(0)
             };
             run_plan(&a.common, plan, Some(&a.checkpoint_in), None, "eval")
-                .map(|r| summary::print(&r, false))
+                .and_then(|r| summary::print(&r, false))
         }
         Cmd::Grasp(a) => {
             let plan = Plan {
-                trials: 0,
                 eval_targets: 0,
-                grasps: a.common.grasps,
+                ..a.common.plan(0)
             };
             run_plan(&a.common, plan, Some(&a.checkpoint_in), None, "grasp")
-                .map(|r| summary::print(&r, false))
+                .and_then(|r| summary::print(&r, false))
         }
         Cmd::Compare(a) => compare::run(a),
     };

@@ -85,11 +85,22 @@ impl From<Ablation> for trn_controller::presets::Ablation {
     }
 }
 
+/// A duration in seconds: finite, positive, at most an hour.
+fn seconds(s: &str) -> Result<f64, String> {
+    let x: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() && x > 0.0 && x <= 3600.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s} is not a duration in (0, 3600] seconds"))
+    }
+}
+
 /// Options shared by every subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct Common {
-    /// Seed of the run (plant, targets, initial tables).
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the run (plant, targets, initial tables). Seeds 1-99 are for tuning; the
+    /// README reports seeds from 100 up.
+    #[arg(long, default_value_t = 100)]
     pub seed: u64,
     /// Simulator configuration (TOML); the built-in defaults when absent.
     #[arg(long)]
@@ -113,6 +124,17 @@ pub struct Common {
     /// Grasps in the evaluation.
     #[arg(long, default_value_t = 50)]
     pub grasps: usize,
+    /// Fine moves after the coarse move in the held-out evaluation with the fixed move
+    /// budget (never stopping early; at most 31).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u8).range(0..=31))]
+    pub fine_moves: u8,
+    /// A frozen snapshot evaluation (held-out targets, fixed budget, no learning) every this
+    /// many training trials (0: none).
+    #[arg(long, default_value_t = 25)]
+    pub snapshot_every: usize,
+    /// Held-out targets per network in each snapshot (the first of the held-out set).
+    #[arg(long, default_value_t = 50)]
+    pub snapshot_targets: usize,
     /// Write the JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -125,9 +147,12 @@ pub struct Common {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
-    /// Seconds without a frame from the controller before the run fails.
-    #[arg(long, default_value_t = 10.0)]
+    /// Seconds without a frame from the controller before the run fails (0 < s <= 3600).
+    #[arg(long, default_value_t = 10.0, value_parser = seconds)]
     pub bus_timeout_s: f64,
+    /// Use a checkpoint learned under another preset, ablation or configuration.
+    #[arg(long)]
+    pub allow_config_change: bool,
 }
 
 impl Common {
@@ -142,11 +167,29 @@ impl Common {
             ablation,
             eval_targets: 100,
             grasps: 50,
+            fine_moves: 6,
+            snapshot_every: 25,
+            snapshot_targets: 50,
             report: None,
             plot: None,
             candump: None,
             quiet: true,
             bus_timeout_s: 10.0,
+            allow_config_change: false,
+        }
+    }
+}
+
+impl Common {
+    /// The plan of a run with `trials` training trials per network.
+    pub fn plan(&self, trials: usize) -> crate::experiment::schedule::Plan {
+        crate::experiment::schedule::Plan {
+            trials,
+            eval_targets: self.eval_targets,
+            grasps: self.grasps,
+            fine_moves: self.fine_moves,
+            snapshot_every: self.snapshot_every,
+            snapshot_targets: self.snapshot_targets,
         }
     }
 }
@@ -157,9 +200,9 @@ pub struct TrainArgs {
     /// Shared options.
     #[command(flatten)]
     pub common: Common,
-    /// Training trials per network.
-    #[arg(long, default_value_t = 300)]
-    pub trials: usize,
+    /// Training trials per network (at least 1: `trn eval` evaluates without training).
+    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: u64,
     /// Continue from this checkpoint (life-long learning).
     #[arg(long)]
     pub checkpoint_in: Option<PathBuf>,
@@ -182,13 +225,19 @@ pub struct EvalArgs {
 /// `trn compare`.
 #[derive(Debug, Args, Clone)]
 pub struct CompareArgs {
-    /// Seeds to run (1..=N).
-    #[arg(long, default_value_t = 5)]
+    /// Seeds to run: 100 .. 100 + N (tuning uses seeds 1-99 only).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub seeds: u64,
     /// Training trials per network.
     #[arg(long, default_value_t = 300)]
     pub trials: usize,
-    /// Write the comparison as JSON here.
+    /// Only the project preset (the test suite's band check).
+    #[arg(long)]
+    pub project_only: bool,
+    /// Simulator configuration (TOML); the built-in defaults when absent.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Write every seed's figures as JSON here.
     #[arg(long)]
     pub report: Option<PathBuf>,
 }

@@ -1,136 +1,179 @@
-//! `trn compare`: both presets and the ablations over several seeds, as the README table.
+//! `trn compare`: the presets and ablations over seeds from 100 up (tuning never used them),
+//! on the honest protocol: deployment-style held-out targets, a fixed move budget, failures
+//! counted. Prints the README's table; `--report` writes every seed's figures as JSON.
+
+use serde::Serialize;
 
 use super::cli::{Ablation, Common, CompareArgs, Preset};
-use super::report::mean;
+use super::report::{mean, Report};
 use super::run::run_plan;
 use super::schedule::Plan;
-use super::summary::trials_to_reach;
+use super::summary::px;
 use crate::error::{Error, Result};
-use serde::Serialize;
+
+/// The first seed of every reported table: tuning uses seeds 1-99 only.
+pub const FIRST_REPORTED_SEED: u64 = 100;
+
+/// One seed's figures of one configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedFigures {
+    /// The seed.
+    pub seed: u64,
+    /// Combined noise-free error after each move (0 = coarse), fixed budget.
+    pub combined_true_px: Vec<f32>,
+    /// Combined measured error after each move.
+    pub combined_measured_px: Vec<f32>,
+    /// The floor of the measured error.
+    pub noise_floor_px: f32,
+    /// Mean fine moves to 2 px (noise-free).
+    pub moves_to_2px: f32,
+    /// Fine moves per network trial with the controller's stop rule.
+    pub fine_moves_stop_rule: f32,
+    /// Combined final error with the stop rule, noise-free.
+    pub final_true_px_stop_rule: f32,
+    /// Grasp success rate.
+    pub grasp_success: f32,
+    /// Failed trials (whole run).
+    pub failed_trials: usize,
+    /// Coarse-move error at the first and the last snapshot (combined, noise-free).
+    pub snapshot_coarse_px: (f32, f32),
+    /// Wall time (s).
+    pub wall_s: f64,
+}
+
+impl SeedFigures {
+    fn of(seed: u64, r: &Report) -> SeedFigures {
+        let d = &r.deployment;
+        let coarse = |p: Option<&super::report::SnapshotPoint>| {
+            p.and_then(|p| p.combined_true_px.first().copied())
+                .unwrap_or(f32::NAN)
+        };
+        SeedFigures {
+            seed,
+            combined_true_px: d.combined_true_px.clone(),
+            combined_measured_px: d.combined_measured_px.clone(),
+            noise_floor_px: d.noise_floor_px,
+            moves_to_2px: d.moves_to_2px_mean,
+            fine_moves_stop_rule: r.fine_moves_mean,
+            final_true_px_stop_rule: r.final_error_true_px,
+            grasp_success: r.grasp_success_rate,
+            failed_trials: r.failed_trials,
+            snapshot_coarse_px: (
+                coarse(r.learning_curve.first()),
+                coarse(r.learning_curve.last()),
+            ),
+            wall_s: r.wall_s,
+        }
+    }
+}
 
 /// One row of the comparison: a configuration over the seeds.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
     /// Preset and ablation.
     pub name: String,
-    /// Seeds run.
-    pub seeds: Vec<u64>,
-    /// Combined final error per seed (noisy, px).
-    pub final_error_px: Vec<f32>,
-    /// Combined final error per seed (noise-free, px).
-    pub final_error_true_px: Vec<f32>,
-    /// Noise floor per seed (px).
-    pub noise_floor_px: Vec<f32>,
-    /// Mean fine moves per seed (mature).
-    pub fine_moves: Vec<f32>,
-    /// Trials until stage 1 stays below 3 px (None: never).
-    pub stage1_below_3px: Vec<Option<usize>>,
-    /// Trials until stage 2 stays below 3 px.
-    pub stage2_below_3px: Vec<Option<usize>>,
-    /// Grasp success rate per seed.
-    pub grasp_success: Vec<f32>,
-    /// Wall time per seed (s).
-    pub wall_s: Vec<f64>,
+    /// Every seed's figures.
+    pub seeds: Vec<SeedFigures>,
 }
 
-fn spread(x: &[f32]) -> (f32, f32) {
-    let m = mean(x);
-    let var = if x.len() > 1 {
-        x.iter().map(|v| (v - m) * (v - m)).sum::<f32>() / (x.len() - 1) as f32
+/// Mean and sample standard deviation of the finite values.
+pub fn spread(x: &[f32]) -> (f32, f32) {
+    let v: Vec<f32> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    let m = mean(&v);
+    let var = if v.len() > 1 {
+        v.iter().map(|x| (x - m) * (x - m)).sum::<f32>() / (v.len() - 1) as f32
     } else {
-        0.0
+        f32::NAN
     };
     (m, var.sqrt())
 }
 
-/// Runs every configuration over seeds 1..=N and prints a markdown table.
+fn ms(x: &[f32]) -> String {
+    let (m, s) = spread(x);
+    format!("{} ± {}", px(m), px(s))
+}
+
+/// The configurations of the table.
+pub const CONFIGS: [(Preset, Ablation); 5] = [
+    (Preset::Project, Ablation::None),
+    (Preset::Paper, Ablation::None),
+    (Preset::Project, Ablation::NoNeighbourhood),
+    (Preset::Project, Ablation::NoPriming),
+    (Preset::Project, Ablation::NoFine),
+];
+
+/// Runs every configuration over seeds 100.. and prints a markdown table.
 pub fn run(a: &CompareArgs) -> Result<()> {
-    let configs = [
-        (Preset::Project, Ablation::None),
-        (Preset::Paper, Ablation::None),
-        (Preset::Project, Ablation::NoNeighbourhood),
-        (Preset::Project, Ablation::NoPriming),
-        (Preset::Project, Ablation::NoFine),
-    ];
+    let configs: Vec<(Preset, Ablation)> = if a.project_only {
+        vec![CONFIGS[0]]
+    } else {
+        CONFIGS.to_vec()
+    };
     let mut rows = vec![];
     for (preset, ablation) in configs {
         let name = match ablation {
             Ablation::None => preset.name().to_string(),
-            a => format!("{} {}", preset.name(), a.name().replace('-', "")),
+            a => format!("{}, {}", preset.name(), a.name()),
         };
         let mut row = Row {
             name,
             seeds: vec![],
-            final_error_px: vec![],
-            final_error_true_px: vec![],
-            noise_floor_px: vec![],
-            fine_moves: vec![],
-            stage1_below_3px: vec![],
-            stage2_below_3px: vec![],
-            grasp_success: vec![],
-            wall_s: vec![],
         };
-        for seed in 1..=a.seeds {
-            let common = Common::inproc(seed, preset, ablation);
-            let plan = Plan {
-                trials: a.trials,
-                eval_targets: 100,
-                grasps: 50,
+        for seed in FIRST_REPORTED_SEED..FIRST_REPORTED_SEED + a.seeds {
+            let common = Common {
+                config: a.config.clone(),
+                ..Common::inproc(seed, preset, ablation)
             };
-            let r = run_plan(&common, plan, None, None, "compare")?;
+            let r = run_plan(&common, Plan::new(a.trials, 100, 50), None, None, "compare")?;
+            let f = SeedFigures::of(seed, &r);
             eprintln!(
-                "{} seed {seed}: final {:.2} px, wall {:.1} s",
-                row.name, r.final_error_px, r.wall_s
+                "{} seed {seed}: combined true after coarse + 2 fine {} px, after 6 {} px, wall {:.1} s",
+                row.name,
+                px(f.combined_true_px.get(2).copied().unwrap_or(f32::NAN)),
+                px(f.combined_true_px.last().copied().unwrap_or(f32::NAN)),
+                r.wall_s
             );
-            row.seeds.push(seed);
-            row.final_error_px.push(r.final_error_px);
-            row.final_error_true_px.push(r.final_error_true_px);
-            row.noise_floor_px.push(r.noise_floor_px);
-            row.fine_moves.push(r.fine_moves_mean);
-            row.stage1_below_3px
-                .push(trials_to_reach(&r.stage1_error_px, 3.0));
-            row.stage2_below_3px
-                .push(trials_to_reach(&r.stage2_error_px, 3.0));
-            row.grasp_success.push(r.grasp_success_rate);
-            row.wall_s.push(r.wall_s);
+            row.seeds.push(f);
         }
         rows.push(row);
     }
-    println!("| configuration | final error px (noisy) | final error px (true) | noise floor px | fine moves | stage 1 < 3 px by trial | stage 2 < 3 px by trial | grasp success |");
-    println!("|---|---|---|---|---|---|---|---|");
-    for r in &rows {
-        let ms = |x: &[f32]| {
-            let (m, s) = spread(x);
-            format!("{m:.2} ± {s:.2}")
-        };
-        let reach = |x: &[Option<usize>]| {
-            x.iter()
-                .map(|v| v.map(|n| n.to_string()).unwrap_or_else(|| "-".into()))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let success: Vec<f32> = r.grasp_success.iter().map(|x| 100.0 * x).collect();
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} % |",
-            r.name,
-            ms(&r.final_error_px),
-            ms(&r.final_error_true_px),
-            ms(&r.noise_floor_px),
-            ms(&r.fine_moves),
-            reach(&r.stage1_below_3px),
-            reach(&r.stage2_below_3px),
-            ms(&success)
-        );
-    }
+    print_table(&rows);
     if let Some(p) = &a.report {
         let json = serde_json::to_string_pretty(&rows).map_err(|e| Error::Io {
             path: p.clone(),
             source: e.into(),
         })?;
-        std::fs::write(p, json).map_err(|source| Error::Io {
-            path: p.clone(),
-            source,
-        })?;
+        std::fs::write(p, json).map_err(crate::error::io(p))?;
     }
     Ok(())
+}
+
+/// The markdown table of `rows` (mean ± standard deviation over the seeds).
+pub fn print_table(rows: &[Row]) {
+    println!("| configuration | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | grasp success % | failed trials |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let col = |f: &dyn Fn(&SeedFigures) -> f32| -> Vec<f32> { r.seeds.iter().map(f).collect() };
+        let at = |m: usize| col(&|s| s.combined_true_px.get(m).copied().unwrap_or(f32::NAN));
+        let last = col(&|s| s.combined_measured_px.last().copied().unwrap_or(f32::NAN));
+        let floor = col(&|s| s.noise_floor_px);
+        println!(
+            "| {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
+            r.name,
+            ms(&at(0)),
+            ms(&at(1)),
+            ms(&at(2)),
+            ms(&col(&|s| s
+                .combined_true_px
+                .last()
+                .copied()
+                .unwrap_or(f32::NAN))),
+            ms(&last),
+            px(spread(&floor).0),
+            ms(&col(&|s| s.moves_to_2px)),
+            ms(&col(&|s| s.fine_moves_stop_rule)),
+            ms(&col(&|s| 100.0 * s.grasp_success)),
+            r.seeds.iter().map(|s| s.failed_trials).sum::<usize>(),
+        );
+    }
 }

@@ -1,7 +1,13 @@
-//! The run's figures from its log: training curves, held-out evaluation, grasps.
+//! The run's figures from its log: training curves, the held-out evaluations (fixed move
+//! budget, the controller's stop rule, the paper's protocol), snapshots, grasps, failures.
+
+use trn_node::codes;
 
 use super::records::{Phase, RunLog, TrialRecord};
-use super::report::{mean, EvalSummary, GraspSummary, Report, TrialPoint};
+use super::report::{
+    mean, Deployment, EvalSummary, FailedTrial, GraspSummary, Report, SnapshotPoint, TrialPoint,
+    VisitAndReturn,
+};
 use super::scoring::{self, combined, StageScore};
 
 fn last_px(s: Option<&StageScore>) -> f32 {
@@ -20,6 +26,38 @@ fn point(r1: &TrialRecord, r2: &TrialRecord) -> TrialPoint {
         stage1_fine_moves: moves(s1.as_ref()),
         stage2_fine_moves: moves(s2.as_ref()),
     }
+}
+
+/// Why a trial failed, or `None`. With a fixed budget, a trial that made fewer moves than
+/// asked (its readings invalid) failed too.
+pub fn failure(r: &TrialRecord) -> Option<String> {
+    if !r.target_seen {
+        return Some("target not visible from the twin arm".into());
+    }
+    if r.aborted {
+        let reason = r.errors.iter().find(|(c, _)| *c != codes::TRIAL_ABORTED);
+        return Some(match reason {
+            Some((codes::INVALID_OBSERVATION, d)) => {
+                let status = ["valid", "out of view", "occluded", "not detected"];
+                let s = status.get((d & 0xFF) as usize).unwrap_or(&"invalid");
+                format!("lost light: point {} {s}", d >> 8)
+            }
+            Some((codes::OBSERVATION_TIMEOUT, d)) => format!("no observation for capture {d}"),
+            Some((codes::CONTROLLER_ERROR, d)) => format!("controller rejected an input ({d:#x})"),
+            Some((c, d)) => format!("aborted (error {c:#06x}, detail {d})"),
+            None => "aborted".into(),
+        });
+    }
+    if r.fine_moves != trn_protocol::FINE_MOVES_POLICY {
+        let want = r.fine_moves as usize + 1;
+        let stages = [scoring::stage1(r), scoring::stage2(r)];
+        for s in stages.iter().flatten() {
+            if s.errors_px.len() < want {
+                return Some(format!("{} of {want} moves scored", s.errors_px.len()));
+            }
+        }
+    }
+    None
 }
 
 /// Mean error after the coarse move and after each fine move over all trials; a trial that
@@ -44,53 +82,207 @@ pub fn fill(report: &mut Report, log: &RunLog, eval_targets: usize, grasps: usiz
     }
     report.correction_cap_hits = log.trials.iter().map(TrialRecord::cap_hits).sum();
     report.aborted_trials = log.trials.iter().filter(|r| r.aborted).count();
+    report.failures = log
+        .trials
+        .iter()
+        .filter_map(|r| {
+            failure(r).map(|reason| FailedTrial {
+                trial: r.trial,
+                phase: format!("{:?}", r.phase).to_lowercase(),
+                reason,
+            })
+        })
+        .collect();
+    report.failed_trials = report.failures.len();
+    report.evaluation_trials = log
+        .trials
+        .iter()
+        .filter(|r| {
+            matches!(
+                r.phase,
+                Phase::Deployment | Phase::Evaluation | Phase::Grasping
+            )
+        })
+        .count();
     evaluation(report, log, eval_targets);
+    report.deployment = deployment(log, Phase::Deployment, eval_targets);
+    report.learning_curve = snapshots(log);
+    report.visit_and_return = visit_and_return(log, eval_targets);
     grasping(report, log, grasps);
 }
 
+/// The pairs of a phase whose trials both succeeded.
+fn ok_pairs(log: &RunLog, phase: Phase) -> (Vec<(StageScore, StageScore)>, usize) {
+    let mut failed = 0;
+    let mut ok = vec![];
+    for (r1, r2) in log.pairs(phase) {
+        failed += failure(r1).is_some() as usize + failure(r2).is_some() as usize;
+        if let (None, None, Some(a), Some(b)) = (
+            failure(r1),
+            failure(r2),
+            scoring::stage1(r1),
+            scoring::stage2(r2),
+        ) {
+            ok.push((a, b));
+        }
+    }
+    (ok, failed)
+}
+
+fn column(
+    pairs: &[(StageScore, StageScore)],
+    moves: usize,
+    f: impl Fn(&StageScore, &StageScore, usize) -> f32,
+) -> Vec<f32> {
+    (0..moves)
+        .map(|m| mean(&pairs.iter().map(|(a, b)| f(a, b, m)).collect::<Vec<_>>()))
+        .collect()
+}
+
+fn at(v: &[f32], m: usize) -> f32 {
+    v.get(m).copied().unwrap_or(f32::NAN)
+}
+
+/// Fine moves until the noise-free error is within 2 px; `None` if never.
+fn moves_to_2px(s: &StageScore) -> Option<usize> {
+    s.errors_true_px.iter().position(|&e| e <= 2.0)
+}
+
+/// The fixed-budget evaluation of one phase.
+fn deployment(log: &RunLog, phase: Phase, targets: usize) -> Deployment {
+    let (pairs, failed) = ok_pairs(log, phase);
+    let fine_moves = log.phase(phase).map(|r| r.fine_moves).next().unwrap_or(0);
+    let moves = fine_moves as usize + 1;
+    let mut to2 = vec![];
+    let mut not_reached = 0;
+    for s in pairs.iter().flat_map(|(a, b)| [a, b]) {
+        match moves_to_2px(s) {
+            Some(n) => to2.push(n as f32),
+            None => {
+                not_reached += 1;
+                to2.push(moves as f32);
+            }
+        }
+    }
+    let noise: Vec<f32> = pairs
+        .iter()
+        .map(|(a, b)| combined(a.noise_floor_px, b.noise_floor_px))
+        .collect();
+    Deployment {
+        targets,
+        fine_moves,
+        stage1_true_px: column(&pairs, moves, |a, _, m| at(&a.errors_true_px, m)),
+        stage2_true_px: column(&pairs, moves, |_, b, m| at(&b.errors_true_px, m)),
+        combined_true_px: column(&pairs, moves, |a, b, m| {
+            combined(at(&a.errors_true_px, m), at(&b.errors_true_px, m))
+        }),
+        stage1_measured_px: column(&pairs, moves, |a, _, m| at(&a.errors_px, m)),
+        stage2_measured_px: column(&pairs, moves, |_, b, m| at(&b.errors_px, m)),
+        combined_measured_px: column(&pairs, moves, |a, b, m| {
+            combined(at(&a.errors_px, m), at(&b.errors_px, m))
+        }),
+        noise_floor_px: mean(&noise),
+        moves_to_2px_mean: mean(&to2),
+        moves_to_2px_not_reached: not_reached,
+        failed_trials: failed,
+    }
+}
+
+fn snapshots(log: &RunLog) -> Vec<SnapshotPoint> {
+    let mut seen = vec![];
+    for r in &log.trials {
+        if let Phase::Snapshot(n) = r.phase {
+            if !seen.contains(&n) {
+                seen.push(n);
+            }
+        }
+    }
+    seen.into_iter()
+        .map(|n| {
+            let d = deployment(log, Phase::Snapshot(n), 0);
+            SnapshotPoint {
+                trial: n,
+                stage1_true_px: d.stage1_true_px,
+                stage2_true_px: d.stage2_true_px,
+                combined_true_px: d.combined_true_px,
+                failed_trials: d.failed_trials,
+            }
+        })
+        .collect()
+}
+
+fn visit_and_return(log: &RunLog, targets: usize) -> VisitAndReturn {
+    let (pairs, _) = ok_pairs(log, Phase::VisitAndReturn);
+    let f = |g: &dyn Fn(&StageScore) -> f32| -> Vec<f32> {
+        pairs.iter().map(|(a, b)| combined(g(a), g(b))).collect()
+    };
+    let moves: Vec<f32> = pairs
+        .iter()
+        .flat_map(|(a, b)| [a.fine_moves() as f32, b.fine_moves() as f32])
+        .collect();
+    VisitAndReturn {
+        targets,
+        combined_measured_px: mean(&f(&StageScore::final_px)),
+        combined_true_px: mean(&f(&StageScore::final_true_px)),
+        fine_moves: mean(&moves),
+    }
+}
+
+/// The held-out evaluation with the controller's own stop rule (the report's main fields).
 fn evaluation(report: &mut Report, log: &RunLog, targets: usize) {
     let mut eval = EvalSummary {
         targets,
         ..Default::default()
     };
-    let (mut e1, mut e2, mut t1, mut t2, mut m1, mut m2) =
-        (vec![], vec![], vec![], vec![], vec![], vec![]);
-    let (mut mm, mut deg, mut noise) = (vec![], vec![], vec![]);
-    let (mut by_move1, mut by_move2) = (vec![], vec![]);
+    let (pairs, _) = ok_pairs(log, Phase::Evaluation);
     for (r1, r2) in log.pairs(Phase::Evaluation) {
         eval.cap_hits += r1.cap_hits() + r2.cap_hits();
-        let (Some(a), Some(b)) = (scoring::stage1(r1), scoring::stage2(r2)) else {
-            continue;
-        };
-        e1.push(a.final_px());
-        t1.push(a.final_true_px());
-        e2.push(b.final_px());
-        t2.push(b.final_true_px());
-        m1.push(a.fine_moves() as f32);
-        m2.push(b.fine_moves() as f32);
-        mm.push(a.pose_error_mm);
-        deg.push(a.pose_error_deg);
-        noise.push(combined(a.noise_floor_px, b.noise_floor_px));
-        by_move1.push(a.errors_px);
-        by_move2.push(b.errors_px);
     }
+    let col = |f: &dyn Fn(&StageScore, &StageScore) -> f32| -> Vec<f32> {
+        pairs.iter().map(|(a, b)| f(a, b)).collect()
+    };
+    let (e1, e2) = (col(&|a, _| a.final_px()), col(&|_, b| b.final_px()));
+    let (t1, t2) = (
+        col(&|a, _| a.final_true_px()),
+        col(&|_, b| b.final_true_px()),
+    );
+    let (m1, m2) = (
+        col(&|a, _| a.fine_moves() as f32),
+        col(&|_, b| b.fine_moves() as f32),
+    );
     eval.stage1_final_px = mean(&e1);
     eval.stage2_final_px = mean(&e2);
     eval.stage1_final_true_px = mean(&t1);
     eval.stage2_final_true_px = mean(&t2);
     eval.stage1_fine_moves = mean(&m1);
     eval.stage2_fine_moves = mean(&m2);
-    eval.stage1_error_mm = mean(&mm);
-    eval.stage1_error_deg = mean(&deg);
-    eval.stage1_error_by_move_px = by_move_means(&by_move1);
-    eval.stage2_error_by_move_px = by_move_means(&by_move2);
-    let combined_eval: Vec<f32> = e1.iter().zip(&e2).map(|(a, b)| combined(*a, *b)).collect();
-    let combined_true: Vec<f32> = t1.iter().zip(&t2).map(|(a, b)| combined(*a, *b)).collect();
-    report.final_error_px = mean(&combined_eval);
-    report.final_error_true_px = mean(&combined_true);
-    report.noise_floor_px = mean(&noise);
+    eval.stage1_error_mm = mean(&col(&|a, _| a.pose_error_mm));
+    eval.stage1_error_deg = mean(&col(&|a, _| a.pose_error_deg));
+    let by1: Vec<Vec<f32>> = pairs.iter().map(|(a, _)| a.errors_px.clone()).collect();
+    let by2: Vec<Vec<f32>> = pairs.iter().map(|(_, b)| b.errors_px.clone()).collect();
+    eval.stage1_error_by_move_px = by_move_means(&by1);
+    eval.stage2_error_by_move_px = by_move_means(&by2);
+    report.final_error_px = mean(&col(&|a, b| combined(a.final_px(), b.final_px())));
+    report.final_error_true_px = mean(&col(&|a, b| combined(a.final_true_px(), b.final_true_px())));
+    report.noise_floor_px = mean(&col(&|a, b| combined(a.noise_floor_px, b.noise_floor_px)));
     report.fine_moves_mean = (mean(&m1) + mean(&m2)) / 2.0;
     report.eval = eval;
+}
+
+/// Why a scored grasp failed.
+fn grasp_cause(r: &TrialRecord, limit_deg: f64) -> &'static str {
+    let (Some(a), Some(b), Some(g)) = (scoring::stage1(r), scoring::stage2(r), r.grasp) else {
+        return "no grasp";
+    };
+    if a.final_true_px() > 3.0 {
+        "stage-1 error"
+    } else if b.final_true_px() > 2.0 {
+        "stage-2 error"
+    } else if g.perpendicular_error_deg > limit_deg {
+        "orientation"
+    } else {
+        "placement"
+    }
 }
 
 fn grasping(report: &mut Report, log: &RunLog, grasps: usize) {
@@ -101,25 +293,33 @@ fn grasping(report: &mut Report, log: &RunLog, grasps: usize) {
     let (mut ok, mut gc, mut gct, mut gmm, mut gdeg, mut gmoves) =
         (0usize, vec![], vec![], vec![], vec![], vec![]);
     for r in log.phase(Phase::Grasping) {
+        if let Some(reason) = failure(r) {
+            *g.failure_causes.entry(reason).or_default() += 1;
+            continue;
+        }
         if let (Some(a), Some(b)) = (scoring::stage1(r), scoring::stage2(r)) {
-            if let (Some(x), Some(y)) = (a.errors_px.last(), b.errors_px.last()) {
-                gc.push(combined(*x, *y));
-            }
-            if let (Some(x), Some(y)) = (a.errors_true_px.last(), b.errors_true_px.last()) {
-                gct.push(combined(*x, *y));
-            }
+            gc.push(combined(a.final_px(), b.final_px()));
+            gct.push(combined(a.final_true_px(), b.final_true_px()));
             gmoves.push((a.errors_px.len() + b.errors_px.len()).saturating_sub(2) as f32);
         }
         if let Some(score) = r.grasp {
             gmm.push(score.distance_mm as f32);
             gdeg.push(score.perpendicular_error_deg as f32);
             ok += score.success as usize;
+            if !score.success {
+                let cause = grasp_cause(r, 10.0);
+                *g.failure_causes.entry(cause.to_string()).or_default() += 1;
+            }
+        } else {
+            *g.failure_causes
+                .entry("gripper never closed".into())
+                .or_default() += 1;
         }
     }
     g.success_rate = if grasps > 0 {
         ok as f32 / grasps as f32
     } else {
-        0.0
+        f32::NAN
     };
     g.combined_error_px = mean(&gc);
     g.combined_error_true_px = mean(&gct);

@@ -1,4 +1,6 @@
-//! Learning-curve plots like Figs. 8.4-8.6 (plotters; PNG or SVG by file extension).
+//! Learning-curve plots (plotters; PNG or SVG by file extension): frozen snapshots on the
+//! held-out targets with the fixed move budget (what measures learning), and the paper-style
+//! end-of-trial curves of Figs. 8.4-8.5 (which follow the tolerance schedule tol(t)).
 
 use super::report::{smooth, Report};
 use plotters::coord::Shift;
@@ -38,27 +40,89 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 3);
-    let (middle, bottom) = bottom.split_vertically(bottom.dim_in_pixel().1 / 2);
-    let title = format!(
-        "preset {} seed {} ({} bus)",
-        report.preset, report.seed, report.bus
-    );
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let (tl, tr) = top.split_horizontally(top.dim_in_pixel().0 / 2);
+    let (bl, br) = bottom.split_horizontally(bottom.dim_in_pixel().0 / 2);
+    let title = format!("{} seed {}", report.preset, report.seed);
+    snapshots(
+        &tl,
+        &format!("Stage 1, frozen snapshots, held-out ({title})"),
+        report,
+        |p| &p.stage1_true_px,
+    )?;
+    snapshots(&tr, "Stage 2, frozen snapshots, held-out", report, |p| {
+        &p.stage2_true_px
+    })?;
     panel(
-        &top,
-        &format!("Stage 1: positioning and orientation error (Fig. 8.4) - {title}"),
+        &bl,
+        "Stage 1 end-of-trial error in training (Fig. 8.4; follows tol(t))",
         &report.stage1_error_px,
     )?;
     panel(
-        &middle,
-        "Stage 2: positioning error (Fig. 8.5)",
+        &br,
+        "Stage 2 end-of-trial error in training (Fig. 8.5; follows tol(t))",
         &report.stage2_error_px,
     )?;
-    panel(
-        &bottom,
-        "Combined grasping error sqrt(e1^2 + e2^2) (Fig. 8.6)",
-        &report.combined_error_px,
-    )?;
+    Ok(())
+}
+
+/// The learning curve that measures the networks: frozen snapshots on the held-out
+/// deployment-style targets, noise-free error after the coarse move and fine moves 1-3.
+fn snapshots<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    report: &Report,
+    pick: impl Fn(&super::report::SnapshotPoint) -> &Vec<f32>,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let curve = &report.learning_curve;
+    let xmax = curve.last().map(|p| p.trial).unwrap_or(1).max(1) as f32;
+    let ymax = curve
+        .iter()
+        .filter_map(|p| pick(p).first().copied())
+        .filter(|x| x.is_finite())
+        .fold(10.0f32, f32::max)
+        .min(500.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0f32..xmax * 1.02, (0.3f32..ymax * 1.5).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("training trials")
+        .y_desc("noise-free error (pixels)")
+        .draw()?;
+    let colours = [RED, BLUE, GREEN, MAGENTA];
+    for (m, name) in [
+        "coarse move",
+        "after 1 fine move",
+        "after 2 fine moves",
+        "after 3 fine moves",
+    ]
+    .iter()
+    .enumerate()
+    {
+        let c = colours[m];
+        let pts: Vec<(f32, f32)> = curve
+            .iter()
+            .filter_map(|p| pick(p).get(m).map(|&e| (p.trial as f32, e.max(0.3))))
+            .filter(|(_, e)| e.is_finite())
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(pts.into_iter().map(move |p| Circle::new(p, 3, c.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
     Ok(())
 }
 

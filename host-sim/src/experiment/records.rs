@@ -50,12 +50,28 @@ impl TrialKind {
 /// Which part of a run a trial belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
-    /// Training (learning on).
+    /// Training (learning on, the paper's visit-then-return targets).
     Training,
-    /// Held-out evaluation (no learning).
+    /// A frozen snapshot after this many training trials per network: the held-out
+    /// targets with the fixed move budget, no learning.
+    Snapshot(usize),
+    /// The final held-out evaluation with the fixed move budget (deployment-style targets).
+    Deployment,
+    /// The final held-out evaluation with the controller's own stop rule (the same
+    /// deployment-style targets): what a user sees in operation.
     Evaluation,
-    /// Full grasps.
+    /// The paper's protocol as a secondary evaluation: visit-then-return targets, the
+    /// controller's stop rule.
+    VisitAndReturn,
+    /// Full grasps of deployment-style cylinders, the controller's stop rule.
     Grasping,
+}
+
+impl Phase {
+    /// True for every phase without learning.
+    pub fn is_evaluation(self) -> bool {
+        self != Phase::Training
+    }
 }
 
 /// One trial as the runner saw it.
@@ -67,8 +83,13 @@ pub struct TrialRecord {
     pub kind: TrialKind,
     /// The part of the run.
     pub phase: Phase,
-    /// The target.
+    /// The fine moves asked for (`FINE_MOVES_POLICY`: the controller's rule).
+    pub fine_moves: u8,
+    /// The target (`Target::NONE` when it could not be seen).
     pub target: Target,
+    /// False when the target could not be realised (a light out of view from the twin):
+    /// nothing was sent.
+    pub target_seen: bool,
     /// Every capture served during the trial, in order: each is one move.
     pub captures: Vec<Capture>,
     /// The controller's reports (one per stage run).

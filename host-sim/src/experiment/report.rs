@@ -65,6 +65,83 @@ pub struct GraspSummary {
     pub error_deg: f32,
     /// Mean fine moves per grasp (both stages).
     pub fine_moves: f32,
+    /// Every failed grasp by cause: the reason of a failed trial (a lost light, ...), or for
+    /// a grasp that closed off the mark, the first of: stage-1 error (above 3 px), stage-2
+    /// error (above 2 px), orientation (beyond the angle limit), placement (both networks on
+    /// target in the images but the gripper off the cylinder).
+    pub failure_causes: std::collections::BTreeMap<String, usize>,
+}
+
+/// The held-out evaluation with the fixed move budget: deployment-style targets, the coarse
+/// move plus exactly `fine_moves` fine moves, no early stop. Entry `m` of each list is the
+/// mean error after move `m` (0 = coarse). Means over no valid trial are `null`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Deployment {
+    /// Held-out targets per network.
+    pub targets: usize,
+    /// Fine moves after the coarse move.
+    pub fine_moves: u8,
+    /// Mean noise-free error of stage 1 after each move (pixels).
+    pub stage1_true_px: Vec<f32>,
+    /// The same for stage 2.
+    pub stage2_true_px: Vec<f32>,
+    /// Mean of sqrt(e1^2 + e2^2) per target, noise-free.
+    pub combined_true_px: Vec<f32>,
+    /// Mean measured error of stage 1 after each move (noisy target vs noisy reading).
+    pub stage1_measured_px: Vec<f32>,
+    /// The same for stage 2.
+    pub stage2_measured_px: Vec<f32>,
+    /// The same combined.
+    pub combined_measured_px: Vec<f32>,
+    /// The floor of the combined measured error: what the camera noise alone gives at the
+    /// target (a second reading against the first).
+    pub noise_floor_px: f32,
+    /// Mean fine moves until the noise-free error is within 2 px (0: the coarse move), over
+    /// the trials of both networks; a trial that never gets there counts as `fine_moves + 1`.
+    pub moves_to_2px_mean: f32,
+    /// Trials that never got within 2 px within the budget.
+    pub moves_to_2px_not_reached: usize,
+    /// Trials of this evaluation that failed (aborted, target not seen, fewer moves).
+    pub failed_trials: usize,
+}
+
+/// One frozen snapshot of the learning curve.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SnapshotPoint {
+    /// Training trials per network before the snapshot.
+    pub trial: usize,
+    /// Mean noise-free stage-1 error after each move (0 = coarse).
+    pub stage1_true_px: Vec<f32>,
+    /// The same for stage 2.
+    pub stage2_true_px: Vec<f32>,
+    /// The same combined.
+    pub combined_true_px: Vec<f32>,
+    /// Trials of the snapshot that failed.
+    pub failed_trials: usize,
+}
+
+/// A trial that failed, and why.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FailedTrial {
+    /// Trial number on the bus.
+    pub trial: u32,
+    /// The part of the run.
+    pub phase: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// The paper's visit-then-return protocol, kept as a secondary evaluation.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct VisitAndReturn {
+    /// Targets per network.
+    pub targets: usize,
+    /// Mean combined final error, measured.
+    pub combined_measured_px: f32,
+    /// Mean combined final error, noise-free.
+    pub combined_true_px: f32,
+    /// Mean fine moves per network trial.
+    pub fine_moves: f32,
 }
 
 /// The report of `trn train` / `trn eval` / `trn grasp` (`--report FILE.json`).
@@ -102,7 +179,7 @@ pub struct Report {
     /// Trials (training and evaluation) that ended at the cap on fine moves.
     pub correction_cap_hits: usize,
     /// Trials the controller aborted (a light out of view or hidden, a rejected input); their
-    /// errors are NaN in the curves and left out of the means.
+    /// errors are NaN in the curves, left out of the means and listed in `failures`.
     pub aborted_trials: usize,
     /// Fraction of successful grasps.
     pub grasp_success_rate: f32,
@@ -116,6 +193,18 @@ pub struct Report {
     pub eval: EvalSummary,
     /// Grasps.
     pub grasp: GraspSummary,
+    /// The held-out evaluation with the fixed move budget.
+    pub deployment: Deployment,
+    /// Frozen snapshots during training (the fixed move budget on the held-out targets).
+    pub learning_curve: Vec<SnapshotPoint>,
+    /// The paper's protocol, secondary.
+    pub visit_and_return: VisitAndReturn,
+    /// Trials that failed in the whole run.
+    pub failed_trials: usize,
+    /// Each failed trial with its reason.
+    pub failures: Vec<FailedTrial>,
+    /// Trials of the held-out evaluations and grasps (for the share that failed).
+    pub evaluation_trials: usize,
 }
 
 impl Report {
@@ -130,15 +219,16 @@ impl Report {
     }
 }
 
-/// Mean of the finite values of a slice (0 when there are none). Aborted trials are NaN in
-/// the curves and counted in [`Report::aborted_trials`], not averaged.
+/// Mean of the finite values of a slice; NaN (`null` in the JSON report, `n/a` in the
+/// table) when there are none. Failed trials are NaN in the curves and counted in
+/// [`Report::failures`], never averaged.
 pub fn mean(x: &[f32]) -> f32 {
     let (sum, n) = x
         .iter()
         .filter(|v| v.is_finite())
         .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
     if n == 0 {
-        0.0
+        f32::NAN
     } else {
         sum / n as f32
     }
@@ -183,7 +273,10 @@ mod tests {
     #[test]
     fn smoothing() {
         assert_eq!(smooth(&[0.0, 3.0, 6.0], 3), vec![1.5, 3.0, 4.5]);
-        assert_eq!(mean(&[]), 0.0);
+        assert!(
+            mean(&[]).is_nan(),
+            "a mean of nothing is no number, never 0"
+        );
         assert_eq!(mean(&[1.0, f32::NAN, 3.0]), 2.0);
     }
 }

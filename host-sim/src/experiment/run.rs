@@ -6,6 +6,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use embedded_can::blocking::Can;
+use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, ImageSize};
 use trn_controller::{Config, Controller};
 use trn_protocol::bus::{InProcBus, ReceiveTimeout, RecordingPort};
@@ -75,6 +76,19 @@ pub fn run_plan_with(
         BusMode::Classic
     };
     let bus = BusSpec::parse(&common.bus)?;
+    let provenance = Provenance::of(common.preset.into(), common.ablation.into());
+    // every output must be writable before the run starts, not fail after it
+    for p in [
+        common.report.as_deref(),
+        common.plot.as_deref(),
+        common.candump.as_deref(),
+        checkpoint_out,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        checkpoint_file::check_writable(p)?;
+    }
     let mut report = Report {
         command: command.to_string(),
         preset: match common.ablation {
@@ -103,7 +117,7 @@ pub fn run_plan_with(
             let mut ctrl = Box::new(Controller::new(cfg));
             ctrl.init_random(common.seed);
             if let Some(p) = checkpoint_in {
-                checkpoint_file::load(&mut ctrl, p)?;
+                checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
             }
             let peer = Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode));
             setup.drive(inproc.port(), plant, peer, &mut report)?
@@ -153,7 +167,7 @@ pub fn run_plan_with(
         }
     };
     if let (Some(ctrl), Some(p)) = (ctrl, checkpoint_out) {
-        checkpoint_file::save(&ctrl, p)?;
+        checkpoint_file::save(&ctrl, provenance, p)?;
     }
     report.wall_s = started.elapsed().as_secs_f64();
     write_outputs(common, &report)?;
@@ -229,7 +243,13 @@ impl Setup<'_> {
         let rig = Rig::new(port, plant, self.mode, heartbeat_for(self.bus));
         let silence = Duration::from_secs_f64(self.common.bus_timeout_s);
         let mut runner = Runner::new(rig, self.common.seed, silence);
-        let log = schedule::run(&mut runner, self.plan, self.cfg, self.common.quiet)?;
+        let log = schedule::run(
+            &mut runner,
+            self.plan,
+            self.cfg,
+            self.common.seed,
+            self.common.quiet,
+        )?;
         metrics::fill(report, &log, self.plan.eval_targets, self.plan.grasps);
         Ok(())
     }

@@ -10,13 +10,35 @@ use trn_node::codes;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
     CanFrame, GraspRequest, Message, Mode, ModeChange, NodeId, Stage1Target, Stage2Target,
-    SupervisedPressure,
+    SupervisedPressure, FINE_MOVES_POLICY,
 };
 
 use super::records::{Phase, TrialKind, TrialRecord};
 use super::rig::{Event, Rig};
-use super::targets;
+use super::targets::{self, HeldOut, Target};
 use crate::error::Result;
+
+/// Where a trial's target comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Source {
+    /// The paper's protocol: the arm visits random pressures, then moves away.
+    VisitAndReturn,
+    /// A deployment-style held-out target (realised on a twin of the plant).
+    HeldOut(HeldOut),
+}
+
+/// One trial to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrialSpec {
+    /// What is asked.
+    pub kind: TrialKind,
+    /// The part of the run.
+    pub phase: Phase,
+    /// The target.
+    pub source: Source,
+    /// Fine moves: a fixed budget, or `FINE_MOVES_POLICY` (the controller's rule).
+    pub fine_moves: u8,
+}
 
 /// The runner and the rig it drives.
 pub struct Runner<P> {
@@ -47,6 +69,11 @@ where
         &self.rig
     }
 
+    /// The rig, to copy and restore the plant around a frozen snapshot evaluation.
+    pub fn rig_mut(&mut self) -> &mut Rig<P> {
+        &mut self.rig
+    }
+
     /// Announces a mode (`Priming`, `Training`, `Mature`).
     pub fn mode(&mut self, mode: Mode) -> Result<()> {
         self.rig
@@ -58,33 +85,77 @@ where
         self.mode(Mode::Idle)
     }
 
-    /// Runs one trial to its end over the bus.
+    /// Runs one training trial (the paper's visit-then-return targets, the controller's
+    /// rule for fine moves) to its end over the bus.
     pub fn run_trial(&mut self, kind: TrialKind, phase: Phase) -> Result<TrialRecord> {
+        self.run(&TrialSpec {
+            kind,
+            phase,
+            source: Source::VisitAndReturn,
+            fine_moves: FINE_MOVES_POLICY,
+        })
+    }
+
+    /// Sets up the plant for a trial: its target, the arm's start pose, the cylinder. `None`
+    /// when a held-out target cannot be seen on this plant.
+    fn set_up(&mut self, spec: &TrialSpec) -> Result<Option<Target>> {
+        let kind = spec.kind;
+        let stage2 = matches!(kind, TrialKind::Stage2 { .. });
+        match &spec.source {
+            Source::VisitAndReturn => {
+                let grasp = kind.is_grasp();
+                let plant = self.rig.plant_mut();
+                let target = targets::visit_and_return(plant, &mut self.rng, grasp)?;
+                // "the robot arm went to a particular arbitrarily chosen position from where
+                // it tried to reach the target" (Sec. 8.4.1); stage 2 keeps the wrist of the
+                // target.
+                let joints = if stage2 { 3 } else { 5 };
+                plant.move_to_random_joints(&mut self.rng, joints);
+                plant.settle();
+                Ok(Some(target))
+            }
+            Source::HeldOut(h) => {
+                let Ok(target) = h.realise(self.rig.plant(), kind.is_grasp()) else {
+                    return Ok(None);
+                };
+                // the arm starts from a pose of its own; a stage-2 trial needs the target's
+                // wrist (stage 2 moves joints 0..=2), which the arm reaches along its own
+                // history
+                let mut start = h.start;
+                if stage2 {
+                    start[3..].copy_from_slice(&h.pressures[3..]);
+                }
+                let plant = self.rig.plant_mut();
+                plant.set_cylinder(target.cylinder);
+                plant.command(&start);
+                plant.settle();
+                Ok(Some(target))
+            }
+        }
+    }
+
+    /// Runs one trial to its end over the bus.
+    pub fn run(&mut self, spec: &TrialSpec) -> Result<TrialRecord> {
         self.trial += 1;
         let trial = self.trial;
-        let target =
-            targets::visit_and_return(self.rig.plant_mut(), &mut self.rng, kind.is_grasp())?;
-        // "the robot arm went to a particular arbitrarily chosen position from where it
-        // tried to reach the target" (Sec. 8.4.1); stage 2 keeps the wrist of the target.
-        let joints = if matches!(kind, TrialKind::Stage2 { .. }) {
-            3
-        } else {
-            5
-        };
-        let plant = self.rig.plant_mut();
-        plant.move_to_random_joints(&mut self.rng, joints);
-        plant.settle();
+        let (kind, phase, fine_moves) = (spec.kind, spec.phase, spec.fine_moves);
+        let set_up = self.set_up(spec)?;
         self.rig.gripper_mut().open();
         let mut rec = TrialRecord {
             trial,
             kind,
             phase,
-            target,
+            fine_moves,
+            target: set_up.unwrap_or(Target::NONE),
+            target_seen: set_up.is_some(),
             captures: vec![],
             reports: vec![],
             errors: vec![],
             aborted: false,
             grasp: None,
+        };
+        let Some(target) = set_up else {
+            return Ok(rec);
         };
         let ctrl = NodeId::Controller;
         let expect_reports = if kind.is_grasp() { 2 } else { 1 };
@@ -102,6 +173,7 @@ where
                         trial,
                         learn,
                         grasp,
+                        fine_moves,
                         v,
                     }
                     .into(),
@@ -115,6 +187,7 @@ where
                         trial,
                         learn,
                         grasp,
+                        fine_moves,
                         c,
                     }
                     .into(),
@@ -129,6 +202,7 @@ where
                         trial,
                         learn,
                         grasp,
+                        fine_moves,
                         v,
                     }
                     .into(),
@@ -139,6 +213,7 @@ where
                         trial,
                         learn,
                         grasp,
+                        fine_moves,
                         c,
                     }
                     .into(),

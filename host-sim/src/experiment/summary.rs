@@ -1,6 +1,9 @@
-//! The summary table printed at the end of a run.
+//! The summary printed at the end of a run: the deployment-style evaluation with the fixed
+//! move budget first (what measures the networks), then the controller's stop rule, the
+//! training curve (which depends on the tolerance schedule tol(t)), grasps and failures.
 
 use super::report::{mean, Report};
+use crate::error::{Error, Result};
 
 /// Mean of the last `n` entries.
 fn tail(x: &[f32], n: usize) -> f32 {
@@ -21,161 +24,222 @@ pub fn trials_to_reach(curve: &[f32], limit: f32) -> Option<usize> {
     first
 }
 
-/// Prints the summary of `r`; with `paper`, the chapter's figures beside the run's.
-pub fn print(r: &Report, paper: bool) {
-    let fmt_reach = |c: &[f32]| {
-        trials_to_reach(c, 3.0)
-            .map(|n| n.to_string())
-            .unwrap_or_else(|| "not reached".into())
-    };
+/// A figure with two decimals, `n/a` for no number.
+pub fn px(x: f32) -> String {
+    if x.is_finite() {
+        format!("{x:.2}")
+    } else {
+        "n/a".into()
+    }
+}
+
+/// Prints the summary of `r`; with `paper`, the chapter's figures beside the run's. Fails
+/// (after printing) when more than 10 % of the evaluation's trials failed.
+pub fn print(r: &Report, paper: bool) -> Result<()> {
+    let w = 100;
     println!();
     println!(
         "TRN controller on the simulated SoftArm: {} ({} preset, seed {}, bus {})",
         r.command, r.preset, r.seed, r.bus
     );
-    println!("{:-<96}", "");
+    println!("{:=<w$}", "");
+    let d = &r.deployment;
+    if d.targets > 0 {
+        println!(
+            "held-out, deployment-style targets, fixed budget: coarse move + {} fine moves, {} targets per network",
+            d.fine_moves, d.targets
+        );
+        println!(
+            "{:<38} {}",
+            "error after move (px)",
+            (0..=d.fine_moves)
+                .map(|m| if m == 0 {
+                    format!("{:>6}", "coarse")
+                } else {
+                    format!("{m:>6}")
+                })
+                .collect::<Vec<_>>()
+                .join("")
+        );
+        let row = |name: &str, v: &[f32]| {
+            println!(
+                "{:<38} {}",
+                name,
+                v.iter()
+                    .map(|x| format!("{:>6}", px(*x)))
+                    .collect::<Vec<_>>()
+                    .join("")
+            );
+        };
+        row("stage 1, noise-free", &d.stage1_true_px);
+        row("stage 2, noise-free", &d.stage2_true_px);
+        row("combined, noise-free", &d.combined_true_px);
+        row("combined, measured", &d.combined_measured_px);
+        println!(
+            "{:<38} {}",
+            "camera-noise floor of the measured (px)",
+            px(d.noise_floor_px)
+        );
+        println!(
+            "{:<38} {} (not within the budget: {} trials)",
+            "fine moves to 2 px (noise-free)",
+            px(d.moves_to_2px_mean),
+            d.moves_to_2px_not_reached
+        );
+        println!("{:-<w$}", "");
+    }
+    if let (Some(first), Some(last)) = (r.learning_curve.first(), r.learning_curve.last()) {
+        println!(
+            "frozen snapshots: combined noise-free error after coarse / 2 fine moves: {} / {} px after {} trials, {} / {} px after {}",
+            px(first.combined_true_px.first().copied().unwrap_or(f32::NAN)),
+            px(first.combined_true_px.get(2).copied().unwrap_or(f32::NAN)),
+            first.trial,
+            px(last.combined_true_px.first().copied().unwrap_or(f32::NAN)),
+            px(last.combined_true_px.get(2).copied().unwrap_or(f32::NAN)),
+            last.trial,
+        );
+        println!("{:-<w$}", "");
+    }
     println!(
-        "{:<58} {:>18} {:>18}",
+        "{:<62} {:>16} {:>18}",
         "",
         "this run",
         if paper { "paper (Sec. 8.4)" } else { "" }
     );
     let row = |name: &str, ours: String, theirs: &str| {
         println!(
-            "{:<58} {:>18} {:>18}",
+            "{:<62} {:>16} {:>18}",
             name,
             ours,
             if paper { theirs } else { "" }
         );
     };
+    if r.eval.targets > 0 {
+        row(
+            "held-out, controller's stop rule: combined final error (px)",
+            px(r.final_error_px),
+            "1.35",
+        );
+        row("  the same, noise-free", px(r.final_error_true_px), "");
+        row(
+            "  camera-noise floor of that measure",
+            px(r.noise_floor_px),
+            "",
+        );
+        row(
+            "  fine moves per network trial",
+            px(r.fine_moves_mean),
+            "2-3",
+        );
+        row(
+            "  stage 1 / stage 2 final error (px)",
+            format!(
+                "{} / {}",
+                px(r.eval.stage1_final_px),
+                px(r.eval.stage2_final_px)
+            ),
+            "a little < 1",
+        );
+        row(
+            "  stage 1 pose error (mm / deg)",
+            format!(
+                "{} / {}",
+                px(r.eval.stage1_error_mm),
+                px(r.eval.stage1_error_deg)
+            ),
+            "",
+        );
+        let v = &r.visit_and_return;
+        row(
+            "paper's visit-then-return targets: combined final error",
+            format!(
+                "{} px, {} moves",
+                px(v.combined_measured_px),
+                px(v.fine_moves)
+            ),
+            "",
+        );
+    }
     if r.trials > 0 {
+        let reach = |c: &[f32]| {
+            trials_to_reach(c, 3.0)
+                .map(|n| n.to_string())
+                .unwrap_or_else(|| "not reached".into())
+        };
         row(
             "training trials per network",
             r.trials.to_string(),
             "300-1000",
         );
         row(
-            "stage 1 below 3 px (position+orientation) after trial",
-            fmt_reach(&r.stage1_error_px),
-            "400",
-        );
-        row(
-            "stage 2 below 3 px after trial",
-            fmt_reach(&r.stage2_error_px),
-            "400",
-        );
-        row(
-            "combined error, last 50 training trials (px)",
-            format!("{:.2}", tail(&r.combined_error_px, 50)),
-            "1.35 @300",
-        );
-        let late: Vec<f32> = r.fine_moves.iter().map(|&m| m as f32).collect();
-        row(
-            "stage-1 fine moves per trial, last 50 training trials",
-            format!("{:.2}", tail(&late, 50)),
-            "~8 @200",
-        );
-    }
-    if r.eval.targets > 0 {
-        row(
-            "held-out targets per network (no learning)",
-            r.eval.targets.to_string(),
-            "",
-        );
-        row(
-            "stage 1 final error (px)",
-            format!("{:.2}", r.eval.stage1_final_px),
-            "a little < 1",
-        );
-        row(
-            "stage 2 final error (px)",
-            format!("{:.2}", r.eval.stage2_final_px),
-            "a little < 1",
-        );
-        row(
-            "combined final error, noisy target vs noisy reading (px)",
-            format!("{:.2}", r.final_error_px),
-            "1.35",
-        );
-        row(
-            "combined final error, noise-free ground truth (px)",
-            format!("{:.2}", r.final_error_true_px),
-            "",
-        );
-        row(
-            "camera-noise floor of the same measure (px)",
-            format!("{:.2}", r.noise_floor_px),
-            "",
-        );
-        row(
-            "fine moves per network trial (mature)",
-            format!("{:.2}", r.fine_moves_mean),
-            "2-3",
-        );
-        let by = |v: &[f32]| {
-            v.iter()
-                .map(|x| format!("{x:.1}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-        };
-        row(
-            "stage 1 error after coarse, fine 1, 2, ... (px)",
-            by(&r.eval.stage1_error_by_move_px),
-            "",
-        );
-        row(
-            "stage 2 error after coarse, fine 1, 2, ... (px)",
-            by(&r.eval.stage2_error_by_move_px),
-            "",
-        );
-        row(
-            "stage 1 pose error (mm / deg)",
+            "training curve below 3 px after trial (depends on tol(t))",
             format!(
-                "{:.1} / {:.1}",
-                r.eval.stage1_error_mm, r.eval.stage1_error_deg
+                "{}, {}",
+                reach(&r.stage1_error_px),
+                reach(&r.stage2_error_px)
             ),
-            "",
+            "400",
+        );
+        row(
+            "  combined end-of-trial error, last 50 trials (tol(t))",
+            px(tail(&r.combined_error_px, 50)),
+            "1.35 @300",
         );
     }
     if r.grasp.grasps > 0 {
-        row("grasps", r.grasp.grasps.to_string(), "");
         row(
-            "grasp success rate",
-            format!("{:.0} %", 100.0 * r.grasp_success_rate),
+            "grasps: success, distance (mm), tilt (deg)",
+            format!(
+                "{} %, {}, {}",
+                px(100.0 * r.grasp_success_rate),
+                px(r.error_mm),
+                px(r.error_deg)
+            ),
             "",
         );
-        row(
-            "grasp: gripper to cylinder centre (mm)",
-            format!("{:.1}", r.error_mm),
-            "",
-        );
-        row(
-            "grasp: deviation from perpendicular (deg)",
-            format!("{:.1}", r.error_deg),
-            "",
-        );
-        row(
-            "grasp combined error (px)",
-            format!("{:.2}", r.grasp.combined_error_px),
-            "",
-        );
+        for (cause, n) in &r.grasp.failure_causes {
+            row(&format!("  failed grasps: {cause}"), n.to_string(), "");
+        }
     }
-    row(
-        "trials ended at the fine-move cap",
-        r.correction_cap_hits.to_string(),
-        "",
-    );
+    row("trials that failed", r.failed_trials.to_string(), "");
     row(
         "wall time (s)",
         format!("{:.1}", r.wall_s),
         "~30 s per trial",
     );
-    println!("{:-<96}", "");
+    println!("{:=<w$}", "");
+    check_failures(r)
+}
+
+/// `TooManyFailures` when more than 10 % of the evaluation's trials failed.
+pub fn check_failures(r: &Report) -> Result<()> {
+    let failed: Vec<_> = r
+        .failures
+        .iter()
+        .filter(|f| matches!(f.phase.as_str(), "deployment" | "evaluation" | "grasping"))
+        .collect();
+    if r.evaluation_trials == 0 || failed.len() * 10 <= r.evaluation_trials {
+        return Ok(());
+    }
+    let mut reasons = std::collections::BTreeMap::<&str, usize>::new();
+    for f in &failed {
+        *reasons.entry(f.reason.as_str()).or_default() += 1;
+    }
+    Err(Error::TooManyFailures {
+        failed: failed.len(),
+        trials: r.evaluation_trials,
+        reasons: reasons
+            .iter()
+            .map(|(k, n)| format!("{n} x {k}"))
+            .collect::<Vec<_>>()
+            .join("; "),
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::experiment::report::FailedTrial;
 
     #[test]
     fn reach_is_the_first_trial_after_which_the_mean_stays_below() {
@@ -184,5 +248,32 @@ mod tests {
         let n = trials_to_reach(&c, 3.0).unwrap();
         assert!(n > 45 && n < 60, "{n}");
         assert_eq!(trials_to_reach(&[5.0; 30], 3.0), None);
+    }
+
+    #[test]
+    fn more_than_a_tenth_of_failed_evaluation_trials_is_an_error() {
+        let fail = |phase: &str| FailedTrial {
+            trial: 1,
+            phase: phase.into(),
+            reason: "lost light".into(),
+        };
+        let mut r = Report {
+            evaluation_trials: 20,
+            failures: vec![fail("evaluation"), fail("grasping")],
+            ..Default::default()
+        };
+        assert!(check_failures(&r).is_ok(), "2 of 20 is 10 %");
+        r.failures.push(fail("deployment"));
+        let e = check_failures(&r).unwrap_err().to_string();
+        assert!(e.contains("3 of 20") && e.contains("lost light"), "{e}");
+        // training failures do not count against the evaluation
+        r.failures = vec![fail("training"); 10];
+        assert!(check_failures(&r).is_ok());
+    }
+
+    #[test]
+    fn no_number_prints_as_such() {
+        assert_eq!(px(f32::NAN), "n/a");
+        assert_eq!(px(1.234), "1.23");
     }
 }

@@ -2,7 +2,14 @@
 //!
 //! [`visit_and_return`] is the paper's protocol (Sec. 8.4.1, "split brain"): the arm itself
 //! is driven to random pressures, the cameras read its lights, the pressures are forgotten
-//! and the arm is moved away before the trial.
+//! and the arm is moved away before the trial. Training uses it, as the paper does. With
+//! hysteresis it flatters an evaluation: commanding the target pressure again from nearby
+//! often lands on the very pose, by the play operators' return-point memory.
+//!
+//! [`HeldOut`] targets are deployment-style: the pose is reached by a [`Plant::twin`] (an
+//! arm in the same state of drift and wear) from rest along its own random path, so the
+//! evaluated arm never benefits from having just been there, as with a cylinder a person
+//! placed. Every held-out evaluation uses them.
 
 use rand_core::RngCore;
 
@@ -32,6 +39,86 @@ pub struct Target {
     pub cylinder: Option<Cylinder>,
 }
 
+impl Target {
+    /// No target (a trial whose target could not be seen).
+    pub const NONE: Target = Target {
+        v: [f32::NAN; 8],
+        v_true: [f32::NAN; 8],
+        c: [f32::NAN; 4],
+        c_true: [f32::NAN; 4],
+        noise_v: f32::NAN,
+        noise_c: f32::NAN,
+        pose: crate::plant::Pose::NONE,
+        pressures: [f32::NAN; 5],
+        cylinder: None,
+    };
+}
+
+/// Intermediate pressures a twin passes through on its way to a held-out target.
+pub const PATH: usize = 3;
+
+/// A held-out target, fixed for a whole run: the same pressures, path and noise realise the
+/// same target at every evaluation (on a static plant), or its drifted counterpart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldOut {
+    /// The target pressures.
+    pub pressures: [f32; 5],
+    /// The twin's path from rest to the target pressures.
+    pub path: [[f32; 5]; PATH],
+    /// Seed of the twin's camera noise.
+    pub noise_seed: u64,
+    /// Pressures of the evaluated arm's start pose (stage 2 and grasps: its wrist goes to the
+    /// target's wrist pressures instead, along its own path).
+    pub start: [f32; 5],
+}
+
+impl HeldOut {
+    /// A random held-out target.
+    pub fn draw(plant: &Plant, rng: &mut impl RngCore) -> HeldOut {
+        HeldOut {
+            pressures: plant.random_pressures(rng),
+            path: core::array::from_fn(|_| plant.random_pressures(rng)),
+            noise_seed: rng.next_u64(),
+            start: plant.random_pressures(rng),
+        }
+    }
+
+    /// `n` held-out targets all lights of which both cameras see from a twin of `plant`.
+    pub fn set(
+        plant: &Plant,
+        rng: &mut impl RngCore,
+        n: usize,
+        grasp: bool,
+    ) -> Result<Vec<HeldOut>> {
+        let mut out = Vec::with_capacity(n);
+        let mut draws = 0;
+        while out.len() < n {
+            draws += 1;
+            if draws > 20 * n + 1000 {
+                return Err(Error::NoTarget(draws));
+            }
+            let h = HeldOut::draw(plant, rng);
+            if h.realise(plant, grasp).is_ok() {
+                out.push(h);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The target on a twin of `plant` (the same drift and wear), with its cylinder for a
+    /// grasp; `NoTarget` when a light is not seen.
+    pub fn realise(&self, plant: &Plant, grasp: bool) -> Result<Target> {
+        let mut twin = plant.twin(self.noise_seed);
+        for p in &self.path {
+            twin.command(p);
+            twin.settle();
+        }
+        twin.command(&self.pressures);
+        twin.settle();
+        read_target(&mut twin, self.pressures, grasp).ok_or(Error::NoTarget(1))
+    }
+}
+
 /// Euclidean distance.
 pub fn dist<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
     a.iter()
@@ -54,6 +141,17 @@ pub fn visit_and_return(plant: &mut Plant, rng: &mut impl RngCore, grasp: bool) 
         let p = plant.random_pressures(rng);
         plant.command(&p);
         plant.settle();
+        if let Some(t) = read_target(plant, p, grasp) {
+            return Ok(t);
+        }
+    }
+    Err(Error::NoTarget(DRAWS))
+}
+
+/// Reads the target at the plant's pose (`p` produced it), with a second reading for the
+/// noise floor and, for a grasp, a cylinder placed so that this pose is its pre-grasp pose.
+fn read_target(plant: &mut Plant, p: [f32; 5], grasp: bool) -> Option<Target> {
+    {
         let lights = plant.observe_gripper_lights();
         let lights_true = plant.observe_gripper_lights_true();
         let centre = plant.observe_gripper_centre();
@@ -64,7 +162,7 @@ pub fn visit_and_return(plant: &mut Plant, rng: &mut impl RngCore, grasp: bool) 
             centre.to_vector(),
             centre_true.to_vector(),
         ) else {
-            continue;
+            return None;
         };
         let noise_v = second_reading(plant.observe_gripper_lights(), &v);
         let noise_c = second_reading(plant.observe_gripper_centre(), &c);
@@ -85,14 +183,13 @@ pub fn visit_and_return(plant: &mut Plant, rng: &mut impl RngCore, grasp: bool) 
                 plant.observe_cylinder_centre().to_vector(),
                 plant.observe_cylinder_centre_true().to_vector(),
             ) else {
-                continue;
+                return None;
             };
             t.c = cc;
             t.c_true = cc_true;
             t.noise_c = second_reading(plant.observe_cylinder_centre(), &cc);
             t.cylinder = Some(cyl);
         }
-        return Ok(t);
+        Some(t)
     }
-    Err(Error::NoTarget(DRAWS))
 }

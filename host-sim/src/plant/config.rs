@@ -21,8 +21,9 @@ pub struct JointConfig {
     /// Hysteresis loop width: the gap between the ascending and descending branches over a
     /// full cycle, as a fraction of the joint's range (0 = single-valued).
     pub hysteresis_width: f64,
-    /// Asymmetry of the loop in [0, 1): the ascending branch lags by `(1 + a)` and the
-    /// descending one by `(1 - a)` of the mean half-width.
+    /// "Asymmetry" in [0, 1): each play operator lags by `(1 + a) r` going up and `(1 - a) r`
+    /// going down, which is a symmetric operator shifted by `-a r`: the loop moves by a
+    /// constant, its branches stay mirror images (see `joint.rs`).
     pub hysteresis_asymmetry: f64,
     /// Natural frequency of the joint's second-order dynamics (Hz).
     pub natural_freq_hz: f64,
@@ -204,100 +205,9 @@ impl SimConfig {
             .unwrap_or((1024, 768))
     }
 
-    /// Rejects configurations that cannot work, naming the key.
+    /// Rejects configurations that cannot work, naming the key and its valid range
+    /// (`validate.rs` has every range).
     pub fn validate(&self) -> Result<(), SimError> {
-        let bad = |key: String, why: &str| Err(SimError::Config(format!("{key} {why}")));
-        let pos = |x: f64| x.is_finite() && x > 0.0;
-        if !pos(self.dt_s) || self.dt_s > 0.01 {
-            return bad("dt_s".into(), "must be in (0, 0.01] s");
-        }
-        if !(self.settle_s.is_finite() && self.settle_s >= self.dt_s) {
-            return bad("settle_s".into(), "must be at least dt_s");
-        }
-        for (k, v) in [
-            ("shoulder_height_mm", self.shoulder_height_mm),
-            ("upper_arm_mm", self.upper_arm_mm),
-            ("forearm_mm", self.forearm_mm),
-            ("hand_mm", self.hand_mm),
-            ("light_offset_mm", self.light_offset_mm),
-            ("cylinder_radius_mm", self.cylinder_radius_mm),
-            ("cylinder_length_mm", self.cylinder_length_mm),
-            ("grasp_distance_mm", self.grasp_distance_mm),
-            ("grasp_angle_deg", self.grasp_angle_deg),
-        ] {
-            if !pos(v) {
-                return bad(k.into(), "must be positive");
-            }
-        }
-        if !(self.pixel_noise_px.is_finite() && self.pixel_noise_px >= 0.0) {
-            return bad("pixel_noise_px".into(), "must be >= 0");
-        }
-        if self.joints.len() != 5 {
-            return bad("joints".into(), "must list exactly 5 joints");
-        }
-        for (i, j) in self.joints.iter().enumerate() {
-            let key = |f: &str| format!("joints[{i}].{f}");
-            if !(j.min_deg.is_finite() && j.max_deg.is_finite() && j.max_deg > j.min_deg) {
-                return bad(key("max_deg"), "must be greater than min_deg");
-            }
-            if !(j.hysteresis_width.is_finite() && j.hysteresis_width >= 0.0) {
-                return bad(key("hysteresis_width"), "must be >= 0");
-            }
-            if j.hysteresis_width > 0.5 {
-                return bad(key("hysteresis_width"), "must be at most 0.5 of the range");
-            }
-            if !(0.0..1.0).contains(&j.hysteresis_asymmetry) {
-                return bad(key("hysteresis_asymmetry"), "must be in [0, 1)");
-            }
-            if !pos(j.natural_freq_hz) || !pos(j.damping_ratio) || !pos(j.pressure_tau_s) {
-                return bad(
-                    key("natural_freq_hz / damping_ratio / pressure_tau_s"),
-                    "must be positive",
-                );
-            }
-            if 2.0 * std::f64::consts::PI * j.natural_freq_hz * self.dt_s > 0.2 {
-                return bad(
-                    key("natural_freq_hz"),
-                    "is too high for dt_s (unstable integration)",
-                );
-            }
-            let in_unit = |x: f64| x > 0.0 && x <= 1.0;
-            if !(in_unit(j.target_limit) && in_unit(j.servo_limit)) {
-                return bad(key("target_limit / servo_limit"), "must be in (0, 1]");
-            }
-        }
-        if self.cameras.len() != 2 {
-            return bad("cameras".into(), "must list exactly 2 cameras");
-        }
-        for (i, c) in self.cameras.iter().enumerate() {
-            let key = |f: &str| format!("cameras[{i}].{f}");
-            if c.resolution[0] == 0 || c.resolution[1] == 0 {
-                return bad(key("resolution"), "must be positive");
-            }
-            if !pos(c.focal_px) {
-                return bad(key("focal_px"), "must be positive");
-            }
-            let d: f64 = (0..3)
-                .map(|k| (c.look_at_mm[k] - c.position_mm[k]).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            if d.is_nan() || d <= 1.0 {
-                return bad(key("look_at_mm"), "must differ from position_mm");
-            }
-            let cam = super::camera::Camera::new(c);
-            // the camera must see the middle of the workspace
-            let mid = [
-                self.upper_arm_mm * 0.9,
-                0.0,
-                self.shoulder_height_mm + 0.2 * self.upper_arm_mm,
-            ];
-            if cam.project(&mid).is_none() {
-                return bad(
-                    key("look_at_mm"),
-                    "makes the camera see nothing of the workspace",
-                );
-            }
-        }
-        Ok(())
+        super::validate::validate(self)
     }
 }

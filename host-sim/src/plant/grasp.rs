@@ -46,6 +46,12 @@ impl Plant {
         c
     }
 
+    /// Places `cyl` in the world (a cylinder placed for another arm's pose: a deployment
+    /// target of the twin), or removes it.
+    pub fn set_cylinder(&mut self, cyl: Option<Cylinder>) {
+        self.cylinder = cyl;
+    }
+
     /// The cylinder placed last.
     pub fn cylinder(&self) -> Option<&Cylinder> {
         self.cylinder.as_ref()

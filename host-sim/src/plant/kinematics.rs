@@ -26,6 +26,15 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// No pose (NaN everywhere).
+    pub const NONE: Pose = Pose {
+        centre_mm: [f64::NAN; 3],
+        approach: [f64::NAN; 3],
+        finger_axis: [f64::NAN; 3],
+        normal: [f64::NAN; 3],
+        joint_angles_deg: [f64::NAN; 5],
+    };
+
     /// Position (mm) and orientation (degrees: the larger of the approach and normal
     /// deviations) error of this pose against `target`.
     pub fn error_to(&self, target: &Pose) -> (f32, f32) {

@@ -14,6 +14,7 @@ pub mod kinematics;
 pub mod picture;
 pub mod random;
 mod readings;
+mod validate;
 pub mod vec3;
 
 use rand_core::{RngCore, SeedableRng};
@@ -61,6 +62,29 @@ impl Plant {
             cylinder: None,
             cfg: cfg.clone(),
         })
+    }
+
+    /// A second arm of the same make, in the same state of drift and wear (the same time,
+    /// the same cumulative travel per joint), but at rest at zero pressure with a fresh
+    /// hysteresis history, no cylinder, and its own camera noise from `seed`. Deployment-style
+    /// targets come from a twin: a pose reached along a history independent of the arm's.
+    pub fn twin(&self, seed: u64) -> Plant {
+        let mut joints: Vec<Joint> = self.cfg.joints.iter().map(Joint::new).collect();
+        for (t, j) in joints.iter_mut().zip(&self.joints) {
+            t.travel = j.travel;
+        }
+        let mut twin = Plant {
+            joints,
+            cameras: self.cameras.clone(),
+            noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x071A_5EED),
+            time_s: self.time_s,
+            cylinder: None,
+            cfg: self.cfg.clone(),
+        };
+        // the drift and wear of this moment, applied at rest
+        twin.step();
+        twin.time_s = self.time_s;
+        twin
     }
 
     /// The configuration.

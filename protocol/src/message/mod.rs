@@ -36,6 +36,14 @@ fn finite(x: f32, field: &'static str) -> Result<()> {
     }
 }
 
+fn fine_moves(n: u8) -> Result<()> {
+    if n <= FINE_MOVES_MAX || n == FINE_MOVES_POLICY {
+        Ok(())
+    } else {
+        Err(Error::OutOfRange("fine_moves"))
+    }
+}
+
 fn raw12(raw: u16) -> Result<()> {
     if raw <= RAW_MAX {
         Ok(())
@@ -130,8 +138,8 @@ messages! {
     Observation = 39;
     ModeChange = 1;
     SupervisedPressure = 24;
-    Stage1Target = 38;
-    Stage2Target = 22;
+    Stage1Target = 39;
+    Stage2Target = 23;
     GraspRequest = 4;
     TrialReport = 15;
     ErrorReport = 6;
@@ -160,8 +168,14 @@ impl Message {
                 }
                 Ok(())
             }
-            Message::Stage1Target(m) => m.v.iter().try_for_each(|&x| finite(x, "v")),
-            Message::Stage2Target(m) => m.c.iter().try_for_each(|&x| finite(x, "c")),
+            Message::Stage1Target(m) => {
+                fine_moves(m.fine_moves)?;
+                m.v.iter().try_for_each(|&x| finite(x, "v"))
+            }
+            Message::Stage2Target(m) => {
+                fine_moves(m.fine_moves)?;
+                m.c.iter().try_for_each(|&x| finite(x, "c"))
+            }
             Message::SupervisedPressure(m) => m.p.iter().try_for_each(|&x| {
                 if (-1.0..=1.0).contains(&x) {
                     Ok(())

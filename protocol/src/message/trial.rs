@@ -3,6 +3,13 @@
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
+/// `fine_moves` of a target: the controller's own rule decides (stop within its tolerance,
+/// or at its cap on fine moves).
+pub const FINE_MOVES_POLICY: u8 = 0xFF;
+
+/// Largest fixed budget of fine moves a target may ask for.
+pub const FINE_MOVES_MAX: u8 = 31;
+
 /// Stage-1 target for a trial (runner -> controller). With `grasp`, `v` are the target
 /// lights p, q for the grasp approach.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
@@ -14,6 +21,9 @@ pub struct Stage1Target {
     pub learn: bool,
     /// Part of a grasp trial (after a [`GraspRequest`]).
     pub grasp: bool,
+    /// Fine moves: exactly this many after the coarse move (0..=[`FINE_MOVES_MAX`], never
+    /// stopping early: the evaluation's fixed move budget), or [`FINE_MOVES_POLICY`].
+    pub fine_moves: u8,
     /// 8-D target `[p0x, p0y, p1x, p1y, q0x, q0y, q1x, q1y]`, pixels.
     pub v: [f32; 8],
 }
@@ -29,6 +39,9 @@ pub struct Stage2Target {
     pub learn: bool,
     /// Part of a grasp trial.
     pub grasp: bool,
+    /// Fine moves: exactly this many after the coarse move (0..=[`FINE_MOVES_MAX`], never
+    /// stopping early: the evaluation's fixed move budget), or [`FINE_MOVES_POLICY`].
+    pub fine_moves: u8,
     /// 4-D target `[g0x, g0y, g1x, g1y]`, pixels.
     pub c: [f32; 4],
 }

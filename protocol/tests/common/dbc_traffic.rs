@@ -140,6 +140,7 @@ pub fn traffic() -> Vec<Envelope> {
                         trial: t,
                         learn: true,
                         grasp: false,
+                        fine_moves: trn_protocol::FINE_MOVES_POLICY,
                         v: [t as f32; 8],
                     }
                     .into(),

@@ -143,6 +143,7 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
                     trial,
                     learn,
                     grasp,
+                    fine_moves: trn_protocol::FINE_MOVES_POLICY,
                     v
                 }
                 .into()
@@ -159,6 +160,7 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
                     trial,
                     learn,
                     grasp,
+                    fine_moves: trn_protocol::FINE_MOVES_POLICY,
                     c
                 }
                 .into()
