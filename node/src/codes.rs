@@ -19,6 +19,19 @@ pub const CONTROLLER_ERROR: u16 = 0x0103;
 pub const OUT_OF_ORDER: u16 = 0x0104;
 /// The outbox overflowed (a bug): detail = messages dropped.
 pub const OUTBOX_FULL: u16 = 0x0105;
+/// A servo drive is not in its normal state (it holds or vents after losing the heartbeat):
+/// the move did not happen as commanded, nothing is learned from it; detail = `joint << 8 |
+/// SafeState as u8`. The trial is aborted.
+pub const SERVO_NOT_NORMAL: u16 = 0x0106;
+/// A servo drive did not confirm a command after its retries; detail = `joint << 16 | seq`.
+/// The trial is aborted.
+pub const SERVO_TIMEOUT: u16 = 0x0107;
+/// The gripper did not confirm a command after its retries; detail = trial.
+pub const GRIPPER_TIMEOUT: u16 = 0x0108;
+
+/// In `Priming` mode a stage-1 target came without its `SupervisedPressure` (lost or late):
+/// nothing starts, the runner repeats both; detail = trial.
+pub const MISSING_SUPERVISION: u16 = 0x0109;
 
 /// A stable numeric code for each controller error (sent in `ErrorReport.detail`).
 pub fn controller_error_code(e: &CtrlError) -> u32 {
@@ -31,6 +44,7 @@ pub fn controller_error_code(e: &CtrlError) -> u32 {
         CtrlError::WrongObservationKind => 0x600,
         CtrlError::Busy => 0x700,
         CtrlError::TargetOutsideLearnedRegion { .. } => 0x800,
+        CtrlError::FineMoveBudget => 0x900,
         _ => 0xF00,
     }
 }

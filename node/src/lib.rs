@@ -15,6 +15,7 @@
 
 pub mod codes;
 mod config;
+mod exchange;
 mod node;
 mod outbox;
 mod service;

@@ -1,18 +1,21 @@
 //! The controller node's state machine: protocol messages in, controller calls, protocol
-//! messages out.
+//! messages out. Every request it makes is repeated until answered ([`crate::exchange`]);
+//! every target may arrive more than once (the runner repeats it when no answer came), and a
+//! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
+//! with the same final messages again.
 
 use trn_controller::{
     Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
 };
 use trn_protocol as proto;
 use trn_protocol::{
-    CanFrame, CaptureKind, CaptureRequest, Encoder, Envelope, ErrorReport, GripperCommand,
-    Heartbeat, Joint, Message, Mode, NodeId, NodeState, PointStatus, PressureCommand, Reassembler,
-    TrialReport,
+    CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode, ModeChange,
+    NodeId, NodeState, PointStatus, Reassembler, TrialReport,
 };
 
 use crate::codes;
 use crate::config::NodeConfig;
+use crate::exchange::{GaveUp, Pending, ServoAnswer};
 use crate::outbox::{push, send, FrameError, Outbox};
 
 /// Counters of what the node saw.
@@ -20,25 +23,20 @@ use crate::outbox::{push, send, FrameError, Outbox};
 pub struct NodeStats {
     /// Trials started.
     pub trials: u32,
-    /// Trials aborted (invalid observations, timeouts, rejected inputs).
+    /// Trials aborted (invalid observations, timeouts, rejected inputs, drives not normal).
     pub aborted: u32,
-    /// Observations ignored because their sequence number was not the awaited one (late,
-    /// duplicated or foreign).
-    pub stale_observations: u32,
-    /// Capture requests repeated after a timeout.
-    pub capture_retries: u32,
+    /// Answers ignored because they were not the awaited one (late, duplicated, foreign).
+    pub stale_answers: u32,
+    /// Requests repeated after a timeout (commands, captures, the gripper's close).
+    pub retries: u32,
+    /// Commands repeated because a drive confirmed another value than commanded.
+    pub corrected_commands: u32,
+    /// Targets received again (repeats of the runner): ignored or answered from the cache.
+    pub repeated_targets: u32,
     /// Messages not meant for the controller, ignored.
     pub ignored: u32,
     /// Frames dropped by the reassembler (malformed, lost or corrupt segments).
     pub frame_errors: u32,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Awaiting {
-    seq: u16,
-    what: CaptureKind,
-    since_ms: u32,
-    retries: u8,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,6 +46,10 @@ struct PendingGrasp {
     v: Option<[f32; 8]>,
 }
 
+/// Capacity of the cache of a trial's final messages (two reports, a gripper command, or an
+/// error and the abort).
+const FINAL: usize = 4;
+
 /// The controller as a CAN node. It does not own the [`Controller`] (firmware keeps that in
 /// a `static`); every call borrows it.
 #[derive(Debug, Clone)]
@@ -55,13 +57,16 @@ pub struct ControllerNode {
     cfg: NodeConfig,
     seq: u16,
     trial: Option<u32>,
-    awaiting: Option<Awaiting>,
+    pending: Pending,
     supervised: Option<(u32, [f32; 5])>,
     grasp: Option<PendingGrasp>,
     mode: Mode,
     heartbeat_due_ms: Option<u32>,
     heartbeat_counter: u8,
     idle_requested: bool,
+    /// The last trial that ended, and the messages that ended it.
+    last_trial: Option<u32>,
+    last_final: heapless::Vec<Envelope, FINAL>,
     stats: NodeStats,
 }
 
@@ -74,12 +79,12 @@ fn fine_moves(n: u8) -> FineMoves {
     }
 }
 
-fn out_of_order(out: &mut Outbox, trial: u32) {
-    let report = ErrorReport {
-        code: codes::OUT_OF_ORDER,
-        detail: trial,
-    };
-    push(out, NodeId::Controller, report.into());
+fn error(out: &mut Outbox, code: u16, detail: u32) {
+    push(
+        out,
+        NodeId::Controller,
+        ErrorReport { code, detail }.into(),
+    );
 }
 
 impl ControllerNode {
@@ -89,18 +94,22 @@ impl ControllerNode {
             cfg,
             seq: 0,
             trial: None,
-            awaiting: None,
+            pending: Pending::None,
             supervised: None,
             grasp: None,
             mode: Mode::Idle,
             heartbeat_due_ms: None,
             heartbeat_counter: 0,
             idle_requested: false,
+            last_trial: None,
+            last_final: heapless::Vec::new(),
             stats: NodeStats {
                 trials: 0,
                 aborted: 0,
-                stale_observations: 0,
-                capture_retries: 0,
+                stale_answers: 0,
+                retries: 0,
+                corrected_commands: 0,
+                repeated_targets: 0,
                 ignored: 0,
                 frame_errors: 0,
             },
@@ -121,49 +130,34 @@ impl ControllerNode {
         self.trial
     }
 
-    /// Timers: heartbeats and the observation timeout.
+    /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
     pub fn poll(&mut self, ctrl: &mut Controller, now_ms: u32, out: &mut Outbox) {
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);
         if now_ms.wrapping_sub(due) < u32::MAX / 2 {
-            let state = NodeState::Operational;
-            push(
-                out,
-                NodeId::Controller,
-                Heartbeat {
-                    counter: self.heartbeat_counter,
-                    state,
-                }
-                .into(),
-            );
+            let hb = Heartbeat {
+                counter: self.heartbeat_counter,
+                state: NodeState::Operational,
+            };
+            push(out, NodeId::Controller, hb.into());
             self.heartbeat_counter = self.heartbeat_counter.wrapping_add(1);
             self.heartbeat_due_ms = Some(now_ms.wrapping_add(self.cfg.heartbeat_period_ms));
         }
-        if let Some(a) = self.awaiting {
-            if now_ms.wrapping_sub(a.since_ms) >= self.cfg.observation_timeout_ms {
-                if a.retries < self.cfg.capture_retries {
-                    self.stats.capture_retries += 1;
-                    self.awaiting = Some(Awaiting {
-                        since_ms: now_ms,
-                        retries: a.retries + 1,
-                        ..a
-                    });
-                    push(
-                        out,
-                        NodeId::CameraProcessor,
-                        CaptureRequest {
-                            seq: a.seq,
-                            what: a.what,
-                        }
-                        .into(),
-                    );
-                } else {
-                    let report = ErrorReport {
-                        code: codes::OBSERVATION_TIMEOUT,
-                        detail: a.seq as u32,
-                    };
-                    push(out, NodeId::Controller, report.into());
-                    self.abort(ctrl, out);
-                }
+        match self
+            .pending
+            .poll(now_ms, self.cfg.reply_timeout_ms, self.cfg.retries, out)
+        {
+            Ok(true) => self.stats.retries += 1,
+            Ok(false) => {}
+            Err(GaveUp::Servo(detail)) => {
+                error(out, codes::SERVO_TIMEOUT, detail);
+                self.abort(ctrl, out);
+            }
+            Err(GaveUp::Observation(seq)) => {
+                error(out, codes::OBSERVATION_TIMEOUT, seq as u32);
+                self.abort(ctrl, out);
+            }
+            Err(GaveUp::Gripper) => {
+                error(out, codes::GRIPPER_TIMEOUT, self.last_trial.unwrap_or(0));
             }
         }
     }
@@ -171,6 +165,7 @@ impl ControllerNode {
     /// Feeds one received frame through `rx`; a completed message is handled and every
     /// frame to send is passed to `tx`, encoded by `enc`. Frame errors (malformed, lost,
     /// corrupt segments) are returned after the frame is dropped.
+    #[inline(never)]
     pub fn on_frame<const SLOTS: usize>(
         &mut self,
         ctrl: &mut Controller,
@@ -190,6 +185,7 @@ impl ControllerNode {
     }
 
     /// [`ControllerNode::poll`] with the output encoded and passed to `tx`.
+    #[inline(never)]
     pub fn poll_frames(
         &mut self,
         ctrl: &mut Controller,
@@ -214,6 +210,18 @@ impl ControllerNode {
             (NodeId::CameraProcessor, Message::Observation(o)) => {
                 self.on_observation(ctrl, o, now_ms, out)
             }
+            (NodeId::Servo(j), Message::ServoStatus(s)) => {
+                match self.pending.on_servo(j.index() as usize, s, now_ms, out) {
+                    ServoAnswer::Stale => self.stats.stale_answers += 1,
+                    ServoAnswer::Repeated => self.stats.corrected_commands += 1,
+                    ServoAnswer::Confirmed(_) => {}
+                    ServoAnswer::NotNormal(detail) => {
+                        error(out, codes::SERVO_NOT_NORMAL, detail);
+                        self.abort(ctrl, out);
+                    }
+                }
+            }
+            (NodeId::Gripper, Message::GripperStatus(g)) => self.pending.on_gripper(g.closed),
             (NodeId::Controller, Message::SupervisedPressure(s)) => {
                 // supervised pressures belong to priming: ignored once training began
                 if matches!(self.mode, Mode::Idle | Mode::Priming) {
@@ -223,13 +231,21 @@ impl ControllerNode {
                 }
             }
             (NodeId::Controller, Message::GraspRequest(g)) => {
-                self.grasp = Some(PendingGrasp {
-                    trial: g.trial,
-                    learn: false,
-                    v: None,
-                })
+                if self.repeated(g.trial, out) {
+                    return;
+                }
+                if self.grasp.map(|p| p.trial) != Some(g.trial) {
+                    self.grasp = Some(PendingGrasp {
+                        trial: g.trial,
+                        learn: false,
+                        v: None,
+                    });
+                }
             }
             (NodeId::Controller, Message::Stage1Target(t)) => {
+                if self.repeated(t.trial, out) {
+                    return;
+                }
                 if t.grasp {
                     match self.grasp {
                         Some(g) if g.trial == t.trial => {
@@ -239,7 +255,7 @@ impl ControllerNode {
                                 ..g
                             })
                         }
-                        _ => out_of_order(out, t.trial),
+                        _ => error(out, codes::OUT_OF_ORDER, t.trial),
                     }
                     return;
                 }
@@ -247,49 +263,49 @@ impl ControllerNode {
                     Some((trial, p)) if trial == t.trial => Some(p),
                     _ => None,
                 };
-                self.start(
-                    ctrl,
-                    t.trial,
-                    Task::Stage1 {
-                        v: t.v,
-                        supervised,
-                        learn: self.learns(t.learn),
-                    },
-                    fine_moves(t.fine_moves),
-                    now_ms,
-                    out,
-                );
+                if self.mode == Mode::Priming && supervised.is_none() {
+                    // every priming trial is supervised: its pressure was lost or is late
+                    error(out, codes::MISSING_SUPERVISION, t.trial);
+                    return;
+                }
+                let task = Task::Stage1 {
+                    v: t.v,
+                    supervised,
+                    learn: self.learns(t.learn),
+                };
+                self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::Stage2Target(t)) => {
+                if self.repeated(t.trial, out) {
+                    return;
+                }
                 if t.grasp {
-                    match self.grasp.take() {
+                    match self.grasp {
                         Some(PendingGrasp {
                             trial,
                             learn,
                             v: Some(v),
                         }) if trial == t.trial => {
+                            self.grasp = None;
                             let task = Task::Grasp { v, c: t.c, learn };
                             self.start(ctrl, trial, task, fine_moves(t.fine_moves), now_ms, out)
                         }
-                        _ => out_of_order(out, t.trial),
+                        _ => error(out, codes::OUT_OF_ORDER, t.trial),
                     }
                     return;
                 }
-                self.start(
-                    ctrl,
-                    t.trial,
-                    Task::Stage2 {
-                        c: t.c,
-                        learn: self.learns(t.learn),
-                    },
-                    fine_moves(t.fine_moves),
-                    now_ms,
-                    out,
-                );
+                let task = Task::Stage2 {
+                    c: t.c,
+                    learn: self.learns(t.learn),
+                };
+                self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::ModeChange(m)) => {
                 self.mode = m.mode;
                 self.idle_requested = m.mode == Mode::Idle;
+                // the acknowledgement: the mode now in force, to every node
+                let echo = ModeChange { mode: self.mode };
+                push(out, NodeId::Broadcast, echo.into());
             }
             (_, Message::Emergency(_)) => {
                 if self.trial.is_some() {
@@ -298,6 +314,24 @@ impl ControllerNode {
             }
             _ => self.stats.ignored += 1,
         }
+    }
+
+    /// True (and handled) when `trial` is the trial in progress (ignored: it is being
+    /// served) or the trial that ended last (its final messages are sent again: the runner
+    /// did not get them).
+    fn repeated(&mut self, trial: u32, out: &mut Outbox) -> bool {
+        if self.trial == Some(trial) {
+            self.stats.repeated_targets += 1;
+            return true;
+        }
+        if self.last_trial == Some(trial) {
+            self.stats.repeated_targets += 1;
+            for env in &self.last_final {
+                push(out, env.node, env.msg);
+            }
+            return true;
+        }
+        false
     }
 
     /// True after a `ModeChange{Idle}`: the runner has ended the session (a host process
@@ -332,10 +366,10 @@ impl ControllerNode {
             self.stats.aborted += 1;
         }
         self.trial = Some(trial);
-        self.awaiting = None;
+        self.pending = Pending::None;
         self.stats.trials += 1;
         match ctrl.begin_with(task, fine) {
-            Ok(cmd) => self.execute(ctrl, cmd, now_ms, out),
+            Ok(cmd) => self.execute(cmd, now_ms, out),
             Err(e) => self.reject(ctrl, e, out),
         }
     }
@@ -347,36 +381,24 @@ impl ControllerNode {
         now_ms: u32,
         out: &mut Outbox,
     ) {
-        let Some(a) = self.awaiting else {
-            self.stats.stale_observations += 1;
-            return;
-        };
-        if o.seq != a.seq || o.what != a.what {
-            self.stats.stale_observations += 1;
+        if !self.pending.takes_observation(o.seq, o.what) {
+            self.stats.stale_answers += 1;
             return;
         }
-        let used = match a.what {
+        let used = match o.what {
             CaptureKind::GripperLights => 4,
             CaptureKind::GripperCentre => 2,
         };
         for (i, p) in o.points[..used].iter().enumerate() {
             if p.status != PointStatus::Valid {
                 let detail = ((i as u32) << 8) | p.status as u32;
-                push(
-                    out,
-                    NodeId::Controller,
-                    ErrorReport {
-                        code: codes::INVALID_OBSERVATION,
-                        detail,
-                    }
-                    .into(),
-                );
+                error(out, codes::INVALID_OBSERVATION, detail);
                 self.abort(ctrl, out);
                 return;
             }
         }
-        self.awaiting = None;
-        let obs = match a.what {
+        self.pending = Pending::None;
+        let obs = match o.what {
             CaptureKind::GripperLights => {
                 let mut v = [0.0; 8];
                 for (i, p) in o.points.iter().enumerate() {
@@ -393,12 +415,12 @@ impl ControllerNode {
             ]),
         };
         match ctrl.observe(obs) {
-            Ok(cmd) => self.execute(ctrl, cmd, now_ms, out),
+            Ok(cmd) => self.execute(cmd, now_ms, out),
             Err(e) => self.reject(ctrl, e, out),
         }
     }
 
-    fn execute(&mut self, _ctrl: &mut Controller, cmd: Command, now_ms: u32, out: &mut Outbox) {
+    fn execute(&mut self, cmd: Command, now_ms: u32, out: &mut Outbox) {
         match cmd {
             Command::Move {
                 pressures,
@@ -406,42 +428,31 @@ impl ControllerNode {
                 observe,
             } => {
                 self.seq = self.seq.wrapping_add(1);
-                for (j, joint) in Joint::ALL.iter().enumerate().take(joints as usize) {
-                    // the controller clamps its pressures to [-1, 1] and never emits NaN
-                    let raw = trn_protocol::pressure_to_raw(pressures[j]).unwrap_or(2048);
-                    push(
-                        out,
-                        NodeId::Servo(*joint),
-                        PressureCommand { seq: self.seq, raw }.into(),
-                    );
-                }
+                // the controller clamps its pressures to [-1, 1] and never emits NaN
+                let raw = pressures.map(|p| proto::pressure_to_raw(p).unwrap_or(2048));
                 let what = match observe {
                     ObserveKind::Lights => CaptureKind::GripperLights,
                     ObserveKind::Centre => CaptureKind::GripperCentre,
                 };
-                push(
-                    out,
-                    NodeId::CameraProcessor,
-                    CaptureRequest {
-                        seq: self.seq,
-                        what,
-                    }
-                    .into(),
-                );
-                self.awaiting = Some(Awaiting {
-                    seq: self.seq,
-                    what,
-                    since_ms: now_ms,
-                    retries: 0,
-                });
+                self.pending = Pending::start_move(out, self.seq, raw, joints, what, now_ms);
             }
-            Command::Done(outcome) => self.finish(outcome, out),
+            Command::Done(outcome) => self.finish(outcome, now_ms, out),
         }
     }
 
-    fn finish(&mut self, o: Outcome, out: &mut Outbox) {
-        let trial = self.trial.take().unwrap_or(0);
-        self.awaiting = None;
+    /// Remembers the messages that end `trial`, to send them again if the runner repeats it.
+    fn end_trial(&mut self, out: &Outbox, from: usize) {
+        self.last_trial = self.trial.take();
+        self.last_final.clear();
+        for env in out.iter().skip(from).take(FINAL) {
+            let _ = self.last_final.push(*env);
+        }
+    }
+
+    fn finish(&mut self, o: Outcome, now_ms: u32, out: &mut Outbox) {
+        let trial = self.trial.unwrap_or(0);
+        let from = out.len();
+        self.pending = Pending::None;
         for (stage, s) in [(1u8, o.stage1), (2u8, o.stage2)] {
             if let Some(s) = s {
                 let stage = if stage == 1 && s.supervised { 0 } else { stage };
@@ -457,21 +468,13 @@ impl ControllerNode {
             }
         }
         if o.close_gripper {
-            push(out, NodeId::Gripper, GripperCommand { close: true }.into());
+            self.pending = Pending::start_close(out, now_ms);
         }
+        self.end_trial(out, from);
     }
 
     fn reject(&mut self, ctrl: &mut Controller, e: CtrlError, out: &mut Outbox) {
-        let detail = codes::controller_error_code(&e);
-        push(
-            out,
-            NodeId::Controller,
-            ErrorReport {
-                code: codes::CONTROLLER_ERROR,
-                detail,
-            }
-            .into(),
-        );
+        error(out, codes::CONTROLLER_ERROR, codes::controller_error_code(&e));
         self.abort(ctrl, out);
     }
 
@@ -479,17 +482,11 @@ impl ControllerNode {
     /// the trial number, after the report of the reason.
     fn abort(&mut self, ctrl: &mut Controller, out: &mut Outbox) {
         ctrl.abort();
-        let trial = self.trial.take().unwrap_or(0);
-        push(
-            out,
-            NodeId::Controller,
-            ErrorReport {
-                code: codes::TRIAL_ABORTED,
-                detail: trial,
-            }
-            .into(),
-        );
-        self.awaiting = None;
+        let from = out.len().saturating_sub(1);
+        let trial = self.trial.unwrap_or(0);
+        error(out, codes::TRIAL_ABORTED, trial);
+        self.pending = Pending::None;
         self.stats.aborted += 1;
+        self.end_trial(out, from);
     }
 }

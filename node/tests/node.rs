@@ -4,7 +4,7 @@ use trn_controller::{Config, Controller};
 use trn_node::{codes, ControllerNode, NodeConfig, Outbox};
 use trn_protocol::{
     CaptureKind, Envelope, GraspRequest, Message, NodeId, Observation, PixelPoint, PointStatus,
-    Stage1Target, Stage2Target, SupervisedPressure,
+    SafeState, ServoStatus, Stage1Target, Stage2Target, SupervisedPressure,
 };
 
 const V: [f32; 8] = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
@@ -39,14 +39,46 @@ fn centre(seq: u16, c: &[f32; 4]) -> Envelope {
     Envelope::new(NodeId::CameraProcessor, o.into())
 }
 
-/// The capture request of `out` (there must be one), after checking the pressure commands.
-fn capture(out: &Outbox, joints: usize) -> (u16, CaptureKind) {
-    let cmds = out
-        .iter()
-        .filter(|e| matches!(e.msg, Message::PressureCommand(_)))
-        .count();
-    assert_eq!(cmds, joints, "{out:?}");
+/// Every drive's confirmation of the pressure commands of `out`.
+fn confirmations(out: &Outbox) -> Vec<Envelope> {
     out.iter()
+        .filter_map(|e| match (e.node, e.msg) {
+            (NodeId::Servo(j), Message::PressureCommand(p)) => Some(Envelope::new(
+                NodeId::Servo(j),
+                ServoStatus {
+                    seq: p.seq,
+                    raw: p.raw,
+                    applied: p.raw,
+                    saturated: false,
+                    safe_state: SafeState::Normal,
+                }
+                .into(),
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The capture request that follows the drives' confirmations of the pressure commands of
+/// `out` (there must be `joints` of them, and no capture before they are confirmed).
+fn capture(
+    n: &mut ControllerNode,
+    c: &mut Controller,
+    out: &Outbox,
+    joints: usize,
+) -> (u16, CaptureKind) {
+    let ok = confirmations(out);
+    assert_eq!(ok.len(), joints, "{out:?}");
+    assert!(
+        !out.iter().any(|e| matches!(e.msg, Message::CaptureRequest(_))),
+        "no capture before the drives confirmed: {out:?}"
+    );
+    let mut after = Outbox::new();
+    for env in &ok {
+        n.on_message(c, env, 0, &mut after);
+    }
+    after
+        .iter()
         .find_map(|e| match e.msg {
             Message::CaptureRequest(r) => Some((r.seq, r.what)),
             _ => None,
@@ -104,7 +136,7 @@ fn a_supervised_trial_runs_to_its_report() {
         0,
         &mut out,
     );
-    let (mut seq, what) = capture(&out, 5);
+    let (mut seq, what) = capture(&mut n, &mut c, &out, 5);
     assert_eq!(what, CaptureKind::GripperLights);
     // the arm lands on target at once: one fine move (always made while learning), then done
     for _ in 0..10 {
@@ -121,7 +153,7 @@ fn a_supervised_trial_runs_to_its_report() {
             assert_eq!(n.trial(), None);
             return;
         }
-        seq = capture(&out, 5).0;
+        seq = capture(&mut n, &mut c, &out, 5).0;
     }
     panic!("no report");
 }
@@ -145,7 +177,7 @@ fn invalid_points_abort_the_trial_with_reasons() {
         0,
         &mut out,
     );
-    let (seq, what) = capture(&out, 3);
+    let (seq, what) = capture(&mut n, &mut c, &out, 3);
     assert_eq!(what, CaptureKind::GripperCentre);
     out.clear();
     let mut bad = Observation::centre(
@@ -175,7 +207,7 @@ fn invalid_points_abort_the_trial_with_reasons() {
     out.clear();
     n.on_message(&mut c, &centre(seq, &C), 6, &mut out);
     assert!(out.is_empty());
-    assert_eq!(n.stats().stale_observations, 1);
+    assert_eq!(n.stats().stale_answers, 1);
 }
 
 #[test]
@@ -197,26 +229,29 @@ fn stale_and_foreign_observations_are_ignored_and_lost_ones_retried() {
         0,
         &mut out,
     );
-    let (seq, _) = capture(&out, 5);
+    let (seq, _) = capture(&mut n, &mut c, &out, 5);
     out.clear();
     n.on_message(&mut c, &lights(seq.wrapping_add(9), &V), 1, &mut out);
     n.on_message(&mut c, &centre(seq, &C), 1, &mut out);
     assert!(out.is_empty());
-    assert_eq!(n.stats().stale_observations, 2);
-    // the observation is lost: the capture is requested again, then the trial is aborted
-    n.poll(&mut c, 1999, &mut out);
+    assert_eq!(n.stats().stale_answers, 2);
+    // the observation is lost: the capture is requested again (same seq) every timeout,
+    // then, after the retries, the trial is aborted
+    let t = NodeConfig::default().reply_timeout_ms;
+    n.poll(&mut c, t - 1, &mut out);
     assert!(!out
         .iter()
         .any(|e| matches!(e.msg, Message::CaptureRequest(_))));
     out.clear();
-    n.poll(&mut c, 2000, &mut out);
+    n.poll(&mut c, t, &mut out);
     assert!(out
         .iter()
         .any(|e| matches!(e.msg, Message::CaptureRequest(r) if r.seq == seq)));
-    out.clear();
-    n.poll(&mut c, 4000, &mut out);
-    out.clear();
-    n.poll(&mut c, 6000, &mut out);
+    let retries = NodeConfig::default().retries as u32;
+    for k in 2..=retries + 1 {
+        out.clear();
+        n.poll(&mut c, k * t, &mut out);
+    }
     assert_eq!(
         errors(&out),
         vec![
@@ -224,7 +259,7 @@ fn stale_and_foreign_observations_are_ignored_and_lost_ones_retried() {
             (codes::TRIAL_ABORTED, 1)
         ]
     );
-    assert_eq!(n.stats().capture_retries, 2);
+    assert_eq!(n.stats().retries, retries);
 }
 
 #[test]
@@ -299,11 +334,11 @@ fn a_grasp_moves_stage_1_then_stage_2_then_closes() {
         0,
         &mut out,
     );
-    let (seq, what) = capture(&out, 5);
+    let (seq, what) = capture(&mut n, &mut c, &out, 5);
     assert_eq!(what, CaptureKind::GripperLights);
     out.clear();
     n.on_message(&mut c, &lights(seq, &V), 1, &mut out);
-    let (seq, what) = capture(&out, 3);
+    let (seq, what) = capture(&mut n, &mut c, &out, 3);
     assert_eq!(what, CaptureKind::GripperCentre);
     out.clear();
     n.on_message(&mut c, &centre(seq, &C), 2, &mut out);
@@ -328,4 +363,113 @@ fn heartbeats_every_period() {
             .count();
     }
     assert_eq!(beats, 10);
+}
+
+fn stage1(trial: u32) -> Envelope {
+    to_ctrl(
+        Stage1Target {
+            trial,
+            learn: false,
+            grasp: false,
+            fine_moves: trn_protocol::FINE_MOVES_POLICY,
+            v: V,
+        }
+        .into(),
+    )
+}
+
+/// A lost frame anywhere is repeated, a repeated target is recognised: the target repeated
+/// while its trial runs starts nothing; a lost confirmation repeats the command (same seq);
+/// a drive that applied another value (a corrupted command) gets the command again; the
+/// target repeated after the trial ended gets the same report again. Fails if a repeat
+/// starts a second trial, moves the arm twice or is dropped.
+#[test]
+fn repeats_are_recognised_and_lost_answers_requested_again() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(&mut c, &stage1(5), 0, &mut out);
+    let first = out.clone();
+    out.clear();
+    n.on_message(&mut c, &stage1(5), 1, &mut out);
+    assert!(out.is_empty(), "a repeated target starts nothing: {out:?}");
+    assert_eq!(n.stats().trials, 1);
+    assert_eq!(n.stats().repeated_targets, 1);
+    // confirm 4 drives; drive 2 answers with another value, then not at all
+    let ok = confirmations(&first);
+    for (j, env) in ok.iter().enumerate() {
+        let mut env = *env;
+        if j == 2 {
+            let Message::ServoStatus(mut s) = env.msg else { panic!() };
+            s.applied = (s.applied + 1) % 4096;
+            env.msg = s.into();
+        }
+        n.on_message(&mut c, &env, 2, &mut out);
+    }
+    assert_eq!(n.stats().corrected_commands, 1);
+    let again: Vec<_> = out
+        .iter()
+        .filter(|e| matches!(e.msg, Message::PressureCommand(_)))
+        .collect();
+    assert_eq!(again.len(), 1, "the corrupted command is sent again: {out:?}");
+    assert!(!out.iter().any(|e| matches!(e.msg, Message::CaptureRequest(_))));
+    out.clear();
+    n.poll(&mut c, NodeConfig::default().reply_timeout_ms + 2, &mut out);
+    assert_eq!(
+        out.iter()
+            .filter(|e| matches!(e.msg, Message::PressureCommand(_)))
+            .count(),
+        1,
+        "only the unconfirmed drive is asked again"
+    );
+    // now drive 2 confirms: the capture follows
+    let mut after = Outbox::new();
+    n.on_message(&mut c, &ok[2], 3, &mut after);
+    let seq = after
+        .iter()
+        .find_map(|e| match e.msg {
+            Message::CaptureRequest(r) => Some(r.seq),
+            _ => None,
+        })
+        .expect("capture after the last confirmation");
+    // on target at once: the report
+    after.clear();
+    n.on_message(&mut c, &lights(seq, &V), 4, &mut after);
+    let report = reports(&after);
+    assert_eq!(report.len(), 1);
+    // the report was lost: the runner repeats the target, and gets it again
+    out.clear();
+    n.on_message(&mut c, &stage1(5), 5, &mut out);
+    assert_eq!(reports(&out), report);
+    assert_eq!(n.stats().trials, 1);
+}
+
+/// A drive in its safe state did not apply the command: nothing is learned from the move,
+/// the trial is aborted with the reason.
+#[test]
+fn a_move_a_drive_did_not_make_is_not_trusted() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    n.on_message(&mut c, &stage1(6), 0, &mut out);
+    let ok = confirmations(&out);
+    out.clear();
+    let Message::ServoStatus(mut s) = ok[1].msg else { panic!() };
+    s.safe_state = SafeState::HoldLast;
+    n.on_message(&mut c, &Envelope::new(ok[1].node, s.into()), 1, &mut out);
+    assert_eq!(
+        errors(&out),
+        vec![(codes::SERVO_NOT_NORMAL, 1 << 8 | 1), (codes::TRIAL_ABORTED, 6)]
+    );
+    assert!(!c.busy());
+}
+
+/// A mode change is acknowledged to every node with the mode now in force.
+#[test]
+fn mode_changes_are_echoed() {
+    let (mut c, mut n) = setup();
+    let mut out = Outbox::new();
+    let m = trn_protocol::ModeChange {
+        mode: trn_protocol::Mode::Mature,
+    };
+    n.on_message(&mut c, &to_ctrl(m.into()), 0, &mut out);
+    assert_eq!(out.as_slice(), &[Envelope::new(NodeId::Broadcast, m.into())]);
 }

@@ -190,7 +190,7 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::Emergency, 1),
         (MessageKind::SafeStateEntered, 4),
         (MessageKind::PressureCommand, 4),
-        (MessageKind::ServoStatus, 6),
+        (MessageKind::ServoStatus, 8),
         (MessageKind::GripperCommand, 1),
         (MessageKind::GripperStatus, 1),
         (MessageKind::CaptureRequest, 3),

@@ -40,9 +40,9 @@ KINDS = [
         U16("held_raw", 16, (0, 4095), "raw12")]),
     ("PressureCommand", 0x08, 4, SERVOS, "Controller", [
         U16("seq", 0), U16("raw", 16, (0, 4095), "raw12")]),
-    ("ServoStatus", 0x09, 6, SERVOS, None, [
-        U16("seq", 0), U16("raw", 16, (0, 4095), "raw12"), BOOL("saturated", 32),
-        ENUM("safe_state", 40, "SafeState")]),
+    ("ServoStatus", 0x09, 8, SERVOS, None, [
+        U16("seq", 0), U16("raw", 16, (0, 4095), "raw12"), U16("applied", 32, (0, 4095), "raw12"),
+        BOOL("saturated", 48), ENUM("safe_state", 56, "SafeState")]),
     ("GripperCommand", 0x0A, 1, [10], "Controller", [BOOL("close", 0)]),
     ("GripperStatus", 0x0B, 1, [10], None, [BOOL("closed", 0)]),
     ("CaptureRequest", 0x10, 3, [8], "Controller", [U16("seq", 0), ENUM("what", 16, "CaptureKind")]),

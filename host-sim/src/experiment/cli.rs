@@ -153,6 +153,10 @@ pub struct Common {
     /// Use a checkpoint learned under another preset, ablation or configuration.
     #[arg(long)]
     pub allow_config_change: bool,
+    /// Faults on the in-process bus, each independent per frame and receiver, seeded by the
+    /// run's seed: `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, P in [0, 1]).
+    #[arg(long)]
+    pub faults: Option<trn_protocol::bus::FaultConfig>,
 }
 
 impl Common {
@@ -176,6 +180,7 @@ impl Common {
             quiet: true,
             bus_timeout_s: 10.0,
             allow_config_change: false,
+            faults: None,
         }
     }
 }

@@ -34,6 +34,9 @@ pub fn failure(r: &TrialRecord) -> Option<String> {
     if !r.target_seen {
         return Some("target not visible from the twin arm".into());
     }
+    if r.gave_up {
+        return Some("no answer from the controller to the target and its repeats".into());
+    }
     if r.aborted {
         let reason = r.errors.iter().find(|(c, _)| *c != codes::TRIAL_ABORTED);
         return Some(match reason {

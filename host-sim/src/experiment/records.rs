@@ -98,6 +98,8 @@ pub struct TrialRecord {
     pub errors: Vec<(u16, u32)>,
     /// The controller aborted the trial (its reason is in `errors`).
     pub aborted: bool,
+    /// No answer came to the trial's start after every repeat: given up.
+    pub gave_up: bool,
     /// Grasp score at the gripper's close.
     pub grasp: Option<GraspScore>,
 }

@@ -144,6 +144,22 @@ pub struct VisitAndReturn {
     pub fine_moves: f32,
 }
 
+/// What the bus and both sides did about faults: the injector's counts (in-process bus with
+/// `--faults`), the runner's repeats and give-ups, the controller node's repeats.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct BusReport {
+    /// The `--faults` argument, if any.
+    pub faults: Option<String>,
+    /// Frames sent, delivered, dropped, duplicated, corrupted, truncated, delayed.
+    pub injected: Option<std::collections::BTreeMap<String, u64>>,
+    /// The runner: trial starts and mode changes sent again, trials given up.
+    pub runner: super::runner::RunnerStats,
+    /// The controller node (in-process only): requests repeated, commands corrected after a
+    /// drive confirmed another value, repeated targets, stale answers, dropped frames,
+    /// aborted trials.
+    pub controller: Option<std::collections::BTreeMap<String, u32>>,
+}
+
 /// The report of `trn train` / `trn eval` / `trn grasp` (`--report FILE.json`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -205,6 +221,8 @@ pub struct Report {
     pub failures: Vec<FailedTrial>,
     /// Trials of the held-out evaluations and grasps (for the share that failed).
     pub evaluation_trials: usize,
+    /// Retries, timeouts and give-ups on both sides, and the injected faults.
+    pub bus_stats: BusReport,
 }
 
 impl Report {

@@ -11,7 +11,7 @@ use trn_protocol::heartbeat::HeartbeatConfig;
 use trn_protocol::{BusMode, CanFrame, Encoder, Envelope, Joint, Message, NodeId, Reassembler};
 
 use crate::error::{Error, Result};
-use crate::nodes::{CameraProcessor, Capture, Gripper, Outbox, ServoDrive};
+use crate::nodes::{CameraProcessor, Capture, Gripper, Outbox, Served, ServoDrive};
 use crate::plant::Plant;
 
 /// What the runner is told.
@@ -24,6 +24,9 @@ pub enum Event {
     /// A message from the controller that is not for a plant node (reports, errors,
     /// heartbeats, mode acknowledgements).
     Controller(Message),
+    /// The controller asked a plant node again (a repeated command or capture): the trial
+    /// is alive.
+    Progress,
 }
 
 /// Counters of the rig.
@@ -49,6 +52,8 @@ pub struct Rig<P> {
     enc: Encoder,
     rx: Reassembler,
     start: Instant,
+    /// When the controller was last heard (any frame).
+    heard: Instant,
     stats: RigStats,
 }
 
@@ -69,6 +74,7 @@ where
             enc: Encoder::new(mode),
             rx: Reassembler::new(trn_protocol::DEFAULT_STALE_MS),
             start,
+            heard: start,
             stats: RigStats::default(),
         }
     }
@@ -134,33 +140,26 @@ where
         self.send_all(&out)
     }
 
-    /// Waits for the next frame, serving the drives' timers meanwhile; `BusSilent` when
-    /// none came within `silence`.
-    fn next_frame(&mut self, silence: Duration) -> Result<CanFrame> {
-        let since = Instant::now();
+    /// Serves the bus until something happens that the runner must know about, or until
+    /// `wait` passed without (`Ok(None)`). Fails with `BusSilent` when the controller sent no
+    /// frame at all (heartbeats included) for `silence`: the other side is gone.
+    pub fn next_event(&mut self, wait: Duration, silence: Duration) -> Result<Option<Event>> {
+        let deadline = Instant::now() + wait;
         loop {
-            let wait = silence
-                .saturating_sub(since.elapsed())
-                .min(Duration::from_millis(50));
-            let frame = self.port.receive_timeout(wait)?;
-            self.poll()?;
-            if let Some(f) = frame {
-                self.stats.frames_in += 1;
-                return Ok(f);
-            }
-            if since.elapsed() >= silence {
+            let now = Instant::now();
+            if now.saturating_duration_since(self.heard) >= silence {
                 return Err(Error::BusSilent(silence.as_secs_f64()));
             }
-        }
-    }
-
-    /// Serves the bus until something happens that the runner must know about; fails with
-    /// `BusSilent` when no frame at all came for `silence`.
-    pub fn next_event(&mut self, silence: Duration) -> Result<Event> {
-        loop {
-            let frame = self.next_frame(silence)?;
-            let now = self.now_ms();
-            let env = match self.rx.push(&frame, now) {
+            let left = deadline.saturating_duration_since(now);
+            if left.is_zero() {
+                return Ok(None);
+            }
+            let frame = self.port.receive_timeout(left.min(Duration::from_millis(50)))?;
+            self.poll()?;
+            let Some(frame) = frame else { continue };
+            self.stats.frames_in += 1;
+            let now_ms = self.now_ms();
+            let env = match self.rx.push(&frame, now_ms) {
                 Ok(Some(env)) => env,
                 Ok(None) => continue,
                 Err(_) => {
@@ -168,25 +167,42 @@ where
                     continue;
                 }
             };
-            if let Some(event) = self.dispatch(&env, now)? {
-                return Ok(event);
+            if env.msg.kind().is_command() || env.node == NodeId::Controller {
+                // commands come from the controller (the runner's own do not come back)
+                self.heard = Instant::now();
+            }
+            if let Some(event) = self.dispatch(&env, now_ms)? {
+                return Ok(Some(event));
             }
         }
+    }
+
+    /// When a frame of the controller last arrived.
+    pub fn heard(&self) -> Instant {
+        self.heard
+    }
+
+    /// Restarts the controller's silence clock (at the start of a session).
+    pub fn heard_now(&mut self) {
+        self.heard = Instant::now();
     }
 
     /// Hands one message to every node and sends their answers.
     fn dispatch(&mut self, env: &Envelope, now: u32) -> Result<Option<Event>> {
         let mut out = Outbox::new();
+        let mut answered = false;
         for d in &mut self.drives {
-            d.on_message(&mut self.plant, env, now, &mut out)?;
+            answered |= d.on_message(&mut self.plant, env, now, &mut out)?;
         }
-        let captured = self.camera.on_message(&mut self.plant, env, &mut out);
+        let served = self.camera.on_message(&mut self.plant, env, &mut out);
         let gripper = self.gripper.on_message(env, &mut out);
         self.send_all(&out)?;
-        Ok(match (captured, gripper, env.node) {
-            (Some(c), _, _) => Some(Event::Captured(Box::new(c))),
+        Ok(match (served, gripper, env.node) {
+            (Served::Capture(c), _, _) => Some(Event::Captured(Box::new(c))),
+            (Served::Repeat, _, _) => Some(Event::Progress),
             (_, Some(closed), _) => Some(Event::Gripper(closed)),
-            (_, _, NodeId::Controller) => {
+            _ if answered => Some(Event::Progress),
+            (_, _, NodeId::Controller | NodeId::Broadcast) if !env.msg.kind().is_command() || env.node == NodeId::Broadcast => {
                 if matches!(env.msg, Message::Heartbeat(_)) {
                     self.stats.heartbeats += 1;
                 }

@@ -17,12 +17,12 @@ use super::cli::{Ablation, Common, Preset};
 use super::metrics;
 use super::report::Report;
 use super::rig::Rig;
-use super::runner::Runner;
+use super::runner::{Runner, Timing};
 use super::schedule;
 pub use super::schedule::Plan;
 use crate::error::{io, Error, Result};
 use crate::plant::{Plant, SimConfig};
-use crate::transport::controller_loop::ControllerThread;
+use crate::transport::controller_loop::{ControllerThread, LoopStats};
 use crate::transport::peer::{self, Peer};
 use crate::transport::{slcan_qemu, BusSpec};
 
@@ -76,6 +76,12 @@ pub fn run_plan_with(
         BusMode::Classic
     };
     let bus = BusSpec::parse(&common.bus)?;
+    if common.faults.is_some() && bus != BusSpec::InProc {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "--faults injects faults on the in-process bus only".into(),
+        });
+    }
     let provenance = Provenance::of(common.preset.into(), common.ablation.into());
     // every output must be writable before the run starts, not fail after it
     for p in [
@@ -114,13 +120,32 @@ pub fn run_plan_with(
     let ctrl = match bus {
         BusSpec::InProc => {
             let inproc = InProcBus::new(mode, common.seed);
+            if let Some(f) = common.faults {
+                inproc.set_faults(f);
+            }
             let mut ctrl = Box::new(Controller::new(cfg));
             ctrl.init_random(common.seed);
             if let Some(p) = checkpoint_in {
                 checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
             }
             let peer = Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode));
-            setup.drive(inproc.port(), plant, peer, &mut report)?
+            let done = setup.drive(inproc.port(), plant, peer, &mut report)?;
+            let s = inproc.stats();
+            report.bus_stats.injected = Some(
+                [
+                    ("sent", s.sent),
+                    ("delivered", s.delivered),
+                    ("dropped", s.dropped),
+                    ("duplicated", s.duplicated),
+                    ("corrupted", s.corrupted),
+                    ("truncated", s.truncated),
+                    ("delayed", s.delayed),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+            );
+            done
         }
         BusSpec::SlcanQemu => {
             // processor-in-the-loop: the controller is the firmware in QEMU, seeded with 1 and
@@ -166,7 +191,24 @@ pub fn run_plan_with(
             }
         }
     };
-    if let (Some(ctrl), Some(p)) = (ctrl, checkpoint_out) {
+    if let Some((_, stats)) = &ctrl {
+        let n = stats.node;
+        report.bus_stats.controller = Some(
+            [
+                ("retries", n.retries),
+                ("corrected_commands", n.corrected_commands),
+                ("repeated_targets", n.repeated_targets),
+                ("stale_answers", n.stale_answers),
+                ("frame_errors", n.frame_errors),
+                ("aborted", n.aborted),
+            ]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect(),
+        );
+    }
+    report.bus_stats.faults = common.faults.map(|f| format!("{f:?}"));
+    if let (Some((ctrl, _)), Some(p)) = (ctrl, checkpoint_out) {
         checkpoint_file::save(&ctrl, provenance, p)?;
     }
     report.wall_s = started.elapsed().as_secs_f64();
@@ -212,7 +254,7 @@ impl Setup<'_> {
         plant: Plant,
         peer: Peer,
         report: &mut Report,
-    ) -> Result<Option<Box<Controller>>>
+    ) -> Result<Option<(Box<Controller>, LoopStats)>>
     where
         P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
     {
@@ -242,14 +284,28 @@ impl Setup<'_> {
     {
         let rig = Rig::new(port, plant, self.mode, heartbeat_for(self.bus));
         let silence = Duration::from_secs_f64(self.common.bus_timeout_s);
-        let mut runner = Runner::new(rig, self.common.seed, silence);
+        let reply = match self.bus {
+            // the firmware's clock runs about ten times slower than the wall clock under
+            // QEMU's instruction counting, and its own repeats are 200 ms of it apart
+            BusSpec::SlcanQemu => Duration::from_secs(20),
+            BusSpec::SocketCan(_) => Duration::from_millis(300),
+            BusSpec::InProc => Duration::from_millis(60),
+        };
+        let hb = heartbeat_for(self.bus);
+        let timing = Timing {
+            alive: Duration::from_millis(hb.timeout_ms as u64),
+            ..Timing::new(reply, silence)
+        };
+        let mut runner = Runner::new(rig, self.common.seed, timing);
         let log = schedule::run(
             &mut runner,
             self.plan,
             self.cfg,
             self.common.seed,
             self.common.quiet,
-        )?;
+        );
+        report.bus_stats.runner = runner.stats();
+        let log = log?;
         metrics::fill(report, &log, self.plan.eval_targets, self.plan.grasps);
         Ok(())
     }

@@ -2,7 +2,7 @@
 //! trial on the plant (target, start pose), sends the target over the bus and collects the
 //! trial's record from the rig's events until the controller reports or aborts.
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use embedded_can::blocking::Can;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -16,7 +16,7 @@ use trn_protocol::{
 use super::records::{Phase, TrialKind, TrialRecord};
 use super::rig::{Event, Rig};
 use super::targets::{self, HeldOut, Target};
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Where a trial's target comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,22 +45,65 @@ pub struct Runner<P> {
     rig: Rig<P>,
     rng: Xoshiro256PlusPlus,
     trial: u32,
-    silence: Duration,
+    timing: Timing,
+    stats: RunnerStats,
+}
+
+/// The runner's patience: how long it waits for a sign of the trial (or an acknowledgement)
+/// before repeating its request, how often it repeats, and after how long without any frame
+/// from the controller (heartbeats included) it declares the controller gone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Timing {
+    /// Wait for an answer before repeating.
+    pub reply: Duration,
+    /// Repeats before a trial is given up (recorded as failed).
+    pub retries: u32,
+    /// Silence of the controller that ends the run (`BusSilent`).
+    pub silence: Duration,
+    /// A controller heard within this is alive (its heartbeats come every 100 ms): a trial
+    /// that gets no answer from a live controller is given up; from a silent one, the run
+    /// waits for `silence` to end it.
+    pub alive: Duration,
+}
+
+impl Timing {
+    /// Timing with the given silence, repeats every `reply` up to 12 times, and the
+    /// heartbeat supervision's 500 ms for "alive".
+    pub const fn new(reply: Duration, silence: Duration) -> Timing {
+        Timing {
+            reply,
+            retries: 12,
+            silence,
+            alive: Duration::from_millis(500),
+        }
+    }
+}
+
+/// Counters of the runner.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RunnerStats {
+    /// Trial starts sent again after no answer.
+    pub target_repeats: u32,
+    /// Mode changes sent again after no acknowledgement.
+    pub mode_repeats: u32,
+    /// Trials given up after every repeat.
+    pub given_up: u32,
 }
 
 impl<P> Runner<P>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    /// A runner on `rig`; `seed` drives the targets and start poses; a run fails when the
-    /// controller sends nothing for `silence`.
-    pub fn new(rig: Rig<P>, seed: u64, silence: Duration) -> Self {
+    /// A runner on `rig`; `seed` drives the targets and start poses.
+    pub fn new(mut rig: Rig<P>, seed: u64, timing: Timing) -> Self {
+        rig.heard_now();
         use rand_core::SeedableRng;
         Runner {
             rig,
             rng: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5EED_7A26_E75E_55ED),
             trial: 0,
-            silence,
+            timing,
+            stats: RunnerStats::default(),
         }
     }
 
@@ -74,15 +117,43 @@ where
         &mut self.rig
     }
 
-    /// Announces a mode (`Priming`, `Training`, `Mature`).
+    /// Announces a mode (`Priming`, `Training`, `Mature`, `Idle`) and waits for the
+    /// controller's acknowledgement (the echo to every node), repeating it when none comes.
     pub fn mode(&mut self, mode: Mode) -> Result<()> {
-        self.rig
-            .send(NodeId::Controller, ModeChange { mode }.into())
+        let msg: Message = ModeChange { mode }.into();
+        for _ in 0..=self.timing.retries {
+            self.rig.send(NodeId::Controller, msg)?;
+            let since = Instant::now();
+            loop {
+                let wait = self.timing.reply.saturating_sub(since.elapsed());
+                match self.rig.next_event(wait, self.timing.silence)? {
+                    None => break,
+                    Some(Event::Controller(Message::ModeChange(m))) if m.mode == mode => {
+                        return Ok(())
+                    }
+                    Some(_) => {}
+                }
+            }
+            self.stats.mode_repeats += 1;
+        }
+        Err(Error::BusOpen {
+            bus: "runner".into(),
+            msg: format!(
+                "the controller did not acknowledge mode {mode:?} after {} tries",
+                self.timing.retries + 1
+            ),
+        })
     }
 
-    /// Tells the controller the session is over (`ModeChange{Idle}`).
+    /// Tells the controller the session is over (`ModeChange{Idle}`). A node that ended its
+    /// loop at the first `Idle` cannot acknowledge a repeat when its echo was lost, so a
+    /// missing acknowledgement is not an error here: the caller stops the controller's side
+    /// anyway (the thread's stop flag, the process's exit or kill).
     pub fn finish(&mut self) -> Result<()> {
-        self.mode(Mode::Idle)
+        match self.mode(Mode::Idle) {
+            Err(Error::BusOpen { .. }) => Ok(()),
+            other => other,
+        }
     }
 
     /// Runs one training trial (the paper's visit-then-return targets, the controller's
@@ -152,86 +223,57 @@ where
             reports: vec![],
             errors: vec![],
             aborted: false,
+            gave_up: false,
             grasp: None,
         };
         let Some(target) = set_up else {
             return Ok(rec);
         };
-        let ctrl = NodeId::Controller;
+        let start = start_messages(trial, &spec, &target);
+        self.send_all(&start)?;
         let expect_reports = if kind.is_grasp() { 2 } else { 1 };
-        match kind {
-            TrialKind::Stage1 { supervised, learn } => {
-                if supervised {
-                    let p = target.pressures;
-                    self.rig
-                        .send(ctrl, SupervisedPressure { trial, p }.into())?;
-                }
-                let (grasp, v) = (false, target.v);
-                self.rig.send(
-                    ctrl,
-                    Stage1Target {
-                        trial,
-                        learn,
-                        grasp,
-                        fine_moves,
-                        v,
-                    }
-                    .into(),
-                )?;
-            }
-            TrialKind::Stage2 { learn } => {
-                let (grasp, c) = (false, target.c);
-                self.rig.send(
-                    ctrl,
-                    Stage2Target {
-                        trial,
-                        learn,
-                        grasp,
-                        fine_moves,
-                        c,
-                    }
-                    .into(),
-                )?;
-            }
-            TrialKind::Grasp { learn } => {
-                self.rig.send(ctrl, GraspRequest { trial }.into())?;
-                let (grasp, v, c) = (true, target.v, target.c);
-                self.rig.send(
-                    ctrl,
-                    Stage1Target {
-                        trial,
-                        learn,
-                        grasp,
-                        fine_moves,
-                        v,
-                    }
-                    .into(),
-                )?;
-                self.rig.send(
-                    ctrl,
-                    Stage2Target {
-                        trial,
-                        learn,
-                        grasp,
-                        fine_moves,
-                        c,
-                    }
-                    .into(),
-                )?;
-            }
-        }
         let mut closed = false;
+        let mut since = Instant::now();
+        let mut tries = 0;
         loop {
-            match self.rig.next_event(self.silence)? {
+            let wait = self.timing.reply.saturating_sub(since.elapsed());
+            let event = self.rig.next_event(wait, self.timing.silence)?;
+            let Some(event) = event else {
+                // no sign of the trial within the reply timeout: the target (or its final
+                // report) was lost; the controller answers a repeat of the same trial
+                if tries >= self.timing.retries {
+                    if self.rig.heard().elapsed() > self.timing.alive {
+                        // not lost frames: the controller itself is silent; wait for it
+                        // until the bus timeout ends the run (`BusSilent`)
+                        since = Instant::now();
+                        continue;
+                    }
+                    rec.gave_up = true;
+                    self.stats.given_up += 1;
+                    return Ok(rec);
+                }
+                tries += 1;
+                self.stats.target_repeats += 1;
+                self.send_all(&start)?;
+                since = Instant::now();
+                continue;
+            };
+            match event {
+                Event::Controller(Message::Heartbeat(_)) => continue, // alive, not an answer
                 Event::Captured(c) => rec.captures.push(*c),
                 Event::Gripper(close) => {
-                    closed = close;
-                    if let (true, Some(cyl)) = (close, rec.target.cylinder.as_ref()) {
-                        rec.grasp = Some(self.rig.plant().grasp_score(cyl));
+                    // scored at the first close (a repeated command closes nothing more)
+                    if close && !closed {
+                        if let Some(cyl) = rec.target.cylinder.as_ref() {
+                            rec.grasp = Some(self.rig.plant().grasp_score(cyl));
+                        }
                     }
+                    closed |= close;
                 }
                 Event::Controller(Message::TrialReport(r)) if r.trial == trial => {
-                    rec.reports.push(r);
+                    if !rec.reports.iter().any(|x| x.stage == r.stage) {
+                        rec.reports.push(r);
+                    }
                 }
                 Event::Controller(Message::ErrorReport(e)) => {
                     rec.errors.push((e.code, e.detail));
@@ -239,13 +281,82 @@ where
                         rec.aborted = true;
                         return Ok(rec);
                     }
+                    // a refusal (a lost half of the trial's start) is no progress: the
+                    // start is repeated at the timeout
+                    continue;
                 }
-                Event::Controller(_) => {}
+                Event::Controller(_) => continue,
+                Event::Progress => {}
             }
+            since = Instant::now();
             // a grasp ends when the gripper has closed after both reports
             if rec.reports.len() >= expect_reports && (closed || !kind.is_grasp()) {
                 return Ok(rec);
             }
+        }
+    }
+
+    fn send_all(&mut self, msgs: &[(NodeId, Message)]) -> Result<()> {
+        msgs.iter().try_for_each(|(n, m)| self.rig.send(*n, *m))
+    }
+
+    /// Counters of repeats and give-ups.
+    pub fn stats(&self) -> RunnerStats {
+        self.stats
+    }
+}
+
+/// The messages that start a trial (sent again, the same, when no answer comes).
+fn start_messages(trial: u32, spec: &TrialSpec, target: &Target) -> Vec<(NodeId, Message)> {
+    let ctrl = NodeId::Controller;
+    let fine_moves = spec.fine_moves;
+    match spec.kind {
+        TrialKind::Stage1 { supervised, learn } => {
+            let mut m = vec![];
+            if supervised {
+                let p = target.pressures;
+                m.push((ctrl, SupervisedPressure { trial, p }.into()));
+            }
+            let t = Stage1Target {
+                trial,
+                learn,
+                grasp: false,
+                fine_moves,
+                v: target.v,
+            };
+            m.push((ctrl, t.into()));
+            m
+        }
+        TrialKind::Stage2 { learn } => {
+            let t = Stage2Target {
+                trial,
+                learn,
+                grasp: false,
+                fine_moves,
+                c: target.c,
+            };
+            vec![(ctrl, t.into())]
+        }
+        TrialKind::Grasp { learn } => {
+            let t1 = Stage1Target {
+                trial,
+                learn,
+                grasp: true,
+                fine_moves,
+                v: target.v,
+            };
+            let t2 = Stage2Target {
+                trial,
+                learn,
+                grasp: true,
+                fine_moves,
+                c: target.c,
+            };
+            vec![
+                (ctrl, GraspRequest { trial }.into()),
+                (ctrl, t1.into()),
+                (ctrl, t2.into()),
+            ]
         }
     }
 }

@@ -42,6 +42,22 @@ pub struct Capture {
 #[derive(Debug, Clone, Default)]
 pub struct CameraProcessor {
     captures: u64,
+    /// The last observation sent, to send again when its request is repeated.
+    last: Option<proto::Observation>,
+}
+
+/// What a message was for the camera processor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Served {
+    /// Not a capture request for it.
+    Nothing,
+    /// A new capture: the arm settled, both cameras read.
+    Capture(Capture),
+    /// A repeat of the last request (its observation was lost): the same observation sent
+    /// again, no new reading.
+    Repeat,
+    /// An older request (late or reordered): ignored.
+    Stale,
 }
 
 /// The protocol's points for plant readings: a valid reading as is; an invalid one as
@@ -84,16 +100,23 @@ impl CameraProcessor {
     }
 
     /// A received message: a `CaptureRequest` is served (the arm settles, both cameras
-    /// read) and answered; what was seen is returned for scoring.
-    pub fn on_message(
-        &mut self,
-        plant: &mut Plant,
-        env: &Envelope,
-        out: &mut Outbox,
-    ) -> Option<Capture> {
+    /// read) and answered; what was seen is returned for scoring. A repeat of the last
+    /// request (its observation was lost) gets the same observation again without a new
+    /// reading; an older request (late, reordered) is ignored.
+    pub fn on_message(&mut self, plant: &mut Plant, env: &Envelope, out: &mut Outbox) -> Served {
         let (NodeId::CameraProcessor, Message::CaptureRequest(req)) = (env.node, env.msg) else {
-            return None;
+            return Served::Nothing;
         };
+        if let Some(last) = self.last {
+            if last.seq == req.seq && last.what == req.what {
+                out.push(Envelope::new(NodeId::CameraProcessor, last.into()));
+                return Served::Repeat;
+            }
+            let behind = last.seq.wrapping_sub(req.seq);
+            if behind != 0 && behind < 0x8000 {
+                return Served::Stale;
+            }
+        }
         plant.settle();
         self.captures += 1;
         let (sight, points) = match req.what {
@@ -113,8 +136,9 @@ impl CameraProcessor {
             what: req.what,
             points,
         };
+        self.last = Some(obs);
         out.push(Envelope::new(NodeId::CameraProcessor, obs.into()));
-        Some(Capture {
+        Served::Capture(Capture {
             seq: req.seq,
             sight,
             pose: plant.gripper_pose(),
@@ -138,13 +162,10 @@ mod tests {
         let mut cam = CameraProcessor::new();
         let mut out = Outbox::new();
         let t0 = plant.time_s();
-        let cap = cam
-            .on_message(
-                &mut plant,
-                &request(42, CaptureKind::GripperCentre),
-                &mut out,
-            )
-            .unwrap();
+        let req = request(42, CaptureKind::GripperCentre);
+        let Served::Capture(cap) = cam.on_message(&mut plant, &req, &mut out) else {
+            panic!("a capture")
+        };
         assert!((plant.time_s() - t0 - plant.config().settle_s).abs() < 1e-9);
         let Message::Observation(o) = out[0].msg else {
             panic!()
@@ -162,7 +183,17 @@ mod tests {
             NodeId::CameraProcessor,
             trn_protocol::GripperStatus { closed: true }.into(),
         );
-        assert!(cam.on_message(&mut plant, &hb, &mut out).is_none());
+        assert_eq!(cam.on_message(&mut plant, &hb, &mut out), Served::Nothing);
+        // the request repeated (its observation was lost): the same observation, no new
+        // reading, no time; an older request: nothing
+        let t = plant.time_s();
+        let repeat = request(42, CaptureKind::GripperCentre);
+        assert_eq!(cam.on_message(&mut plant, &repeat, &mut out), Served::Repeat);
+        assert_eq!(out[0], out[1]);
+        assert_eq!(plant.time_s(), t);
+        let old = request(41, CaptureKind::GripperCentre);
+        assert_eq!(cam.on_message(&mut plant, &old, &mut out), Served::Stale);
+        assert_eq!(cam.captures(), 1);
     }
 
     #[test]

@@ -14,7 +14,7 @@ mod camera_processor;
 mod gripper;
 mod servo_drive;
 
-pub use camera_processor::{CameraProcessor, Capture, Sight};
+pub use camera_processor::{CameraProcessor, Capture, Served, Sight};
 pub use gripper::Gripper;
 pub use servo_drive::ServoDrive;
 

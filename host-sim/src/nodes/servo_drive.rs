@@ -15,6 +15,14 @@ pub struct ServoDrive {
     monitor: HeartbeatMonitor,
     /// The raw command applied last (held in the safe state).
     last_raw: u16,
+    /// The sequence number of the command applied last, and its status.
+    last: Option<(u16, ServoStatus)>,
+}
+
+/// True when `seq` is older than `last` (wrapping: within the half of the counter behind).
+fn older(seq: u16, last: u16) -> bool {
+    let behind = last.wrapping_sub(seq);
+    behind != 0 && behind < 0x8000
 }
 
 impl ServoDrive {
@@ -24,6 +32,7 @@ impl ServoDrive {
             joint,
             monitor: HeartbeatMonitor::new(supervision, now_ms),
             last_raw: 2048,
+            last: None,
         }
     }
 
@@ -72,20 +81,30 @@ impl ServoDrive {
 
     /// A received message: heartbeats feed the supervision; a `PressureCommand` to this
     /// drive is applied (ignored in the safe state, which holds or vents) and answered
-    /// with `ServoStatus`.
+    /// with `ServoStatus`. A repeat of the command applied last (same `seq`: its status was
+    /// lost) is answered again without applying it twice; an older command (late, reordered)
+    /// is ignored. Returns true when it answered.
     pub fn on_message(
         &mut self,
         plant: &mut Plant,
         env: &Envelope,
         now_ms: u32,
         out: &mut Outbox,
-    ) -> Result<(), SimError> {
+    ) -> Result<bool, SimError> {
         self.monitor.observe(env, NodeId::Controller, now_ms);
         let Message::PressureCommand(c) = env.msg else {
-            return Ok(());
+            return Ok(false);
         };
         if env.node != self.node() {
-            return Ok(());
+            return Ok(false);
+        }
+        match self.last {
+            Some((seq, status)) if seq == c.seq && status.applied == c.raw => {
+                out.push(Envelope::new(self.node(), status.into()));
+                return Ok(true);
+            }
+            Some((seq, _)) if older(c.seq, seq) => return Ok(false),
+            _ => {}
         }
         let safe_state = self.safe_state();
         let raw = if safe_state == SafeState::Normal {
@@ -98,11 +117,13 @@ impl ServoDrive {
         let status = ServoStatus {
             seq: c.seq,
             raw: fb.raw_pressure,
+            applied: raw,
             saturated: fb.saturated,
             safe_state,
         };
+        self.last = Some((c.seq, status));
         out.push(Envelope::new(self.node(), status.into()));
-        Ok(())
+        Ok(true)
     }
 }
 
@@ -155,6 +176,25 @@ mod tests {
             (plant.joints()[2].pressure() - trn_protocol::raw_to_pressure(3000) as f64).abs()
                 < 0.01
         );
+    }
+
+    /// A repeated command (its status was lost) is answered again but applied once; a late
+    /// older command does not move the arm back. Fails if a duplicate frame could apply a
+    /// stale pressure.
+    #[test]
+    fn repeats_are_answered_once_applied_and_old_commands_ignored() {
+        let mut plant = Plant::new(&SimConfig::default(), 1).unwrap();
+        let mut d = ServoDrive::new(Joint::new(0).unwrap(), HeartbeatConfig::default(), 0);
+        let mut out = Outbox::new();
+        assert!(d.on_message(&mut plant, &command(0, 10, 3000), 0, &mut out).unwrap());
+        assert!(d.on_message(&mut plant, &command(0, 10, 3000), 0, &mut out).unwrap());
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[0], out[1], "the same status again");
+        assert!(!d.on_message(&mut plant, &command(0, 9, 100), 0, &mut out).unwrap());
+        plant.advance(1.0);
+        assert!(plant.joints()[0].pressure() > 0.4, "the late command 9 was not applied");
+        // after a wrap of the counter a new command is new
+        assert!(d.on_message(&mut plant, &command(0, 11, 1000), 0, &mut out).unwrap());
     }
 
     #[test]

@@ -59,7 +59,7 @@ where
 {
     let start = Instant::now();
     let now_ms = || start.elapsed().as_millis() as u32;
-    let mut node = ControllerNode::new(NodeConfig::DEFAULT);
+    let mut node = ControllerNode::new(NodeConfig::HOST);
     let mut enc = Encoder::new(mode);
     let mut rx: Reassembler = Reassembler::new(trn_protocol::DEFAULT_STALE_MS);
     while !stop.load(Ordering::Relaxed) && !node.idle_requested() {
@@ -109,8 +109,11 @@ impl ControllerThread {
         }
     }
 
-    /// Waits for the node to end (after `ModeChange{Idle}`), returning the controller.
+    /// Ends the node's loop (the session is over: the runner had the `Idle` acknowledged,
+    /// or gave up on the controller) and returns the controller. Never waits for a message
+    /// that may have been lost.
     pub fn join(mut self) -> LoopResult {
+        self.stop.store(true, Ordering::Relaxed);
         let join = self.join.take().expect("joined once");
         join.join()
             .unwrap_or(Err(trn_protocol::Error::Io(std::io::ErrorKind::BrokenPipe)))

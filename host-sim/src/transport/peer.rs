@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use trn_controller::Controller;
 
-use super::controller_loop::ControllerThread;
+use super::controller_loop::{ControllerThread, LoopStats};
 use crate::error::{Error, Result};
 
 /// The controller's side of a run.
@@ -101,7 +101,7 @@ impl Peer {
     /// Ends the controller's side after the session: joins the thread (returning the
     /// controller with its tables) or waits for the process, killing it when the session
     /// failed or it does not exit within 10 s.
-    pub fn finish(self, session_ok: bool, bus: &str) -> Result<Option<Box<Controller>>> {
+    pub fn finish(self, session_ok: bool, bus: &str) -> Result<Option<(Box<Controller>, LoopStats)>> {
         let bus_err = |msg: String| Error::BusOpen {
             bus: bus.to_string(),
             msg,
@@ -111,8 +111,8 @@ impl Peer {
                 if !session_ok {
                     return Ok(None);
                 }
-                let (ctrl, _stats) = t.join().map_err(|e| bus_err(e.to_string()))?;
-                Ok(Some(ctrl))
+                let (ctrl, stats) = t.join().map_err(|e| bus_err(e.to_string()))?;
+                Ok(Some((ctrl, stats)))
             }
             Peer::Process(mut child) => {
                 let deadline = Instant::now() + Duration::from_secs(10);

@@ -39,8 +39,69 @@ pub struct FaultConfig {
     pub max_delay_frames: u32,
 }
 
+impl core::str::FromStr for FaultConfig {
+    type Err = String;
+
+    /// `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, each P in [0, 1]):
+    /// `reorder` delays a frame by up to 8 later frames; `corrupt` flips a byte of frames of
+    /// long (CRC-protected) messages only: on a real bus CAN's own CRC discards a corrupted
+    /// frame, which `drop` models, so what reaches a node corrupted is what passed that
+    /// check, and the protocol's end-to-end CRC-32 is what catches it.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut f = FaultConfig {
+            corrupt_scope: CorruptScope::LongMessages,
+            ..FaultConfig::default()
+        };
+        for part in s.split(',').filter(|p| !p.trim().is_empty()) {
+            let (name, value) = part
+                .split_once('=')
+                .ok_or_else(|| format!("`{part}`: expected NAME=P"))?;
+            let p: f64 = value
+                .trim()
+                .parse()
+                .map_err(|_| format!("`{part}`: {value} is not a number"))?;
+            if !(0.0..=1.0).contains(&p) {
+                return Err(format!("`{part}`: a probability is in [0, 1]"));
+            }
+            match name.trim() {
+                "drop" => f.drop = p,
+                "dup" | "duplicate" => f.duplicate = p,
+                "reorder" | "delay" => {
+                    f.delay = p;
+                    f.max_delay_frames = 8;
+                }
+                "corrupt" => f.corrupt = p,
+                "truncate" => f.truncate = p,
+                other => {
+                    return Err(format!(
+                        "unknown fault `{other}`: drop, dup, reorder, corrupt, truncate"
+                    ))
+                }
+            }
+        }
+        Ok(f)
+    }
+}
+
+#[cfg(test)]
+mod parse_tests {
+    use super::*;
+
+    #[test]
+    fn fault_lists_parse_and_bad_ones_are_named() {
+        let f: FaultConfig = "drop=0.05,dup=0.01,reorder=0.02,corrupt=0.03,truncate=0.04"
+            .parse()
+            .unwrap();
+        assert_eq!((f.drop, f.duplicate, f.delay, f.corrupt, f.truncate), (0.05, 0.01, 0.02, 0.03, 0.04));
+        assert_eq!((f.max_delay_frames, f.corrupt_scope), (8, CorruptScope::LongMessages));
+        for bad in ["drop", "drop=x", "drop=2", "drop=-0.1", "jam=0.1", "drop=nan"] {
+            assert!(bad.parse::<FaultConfig>().is_err(), "{bad}");
+        }
+    }
+}
+
 /// Counters of what the bus did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct BusStats {
     /// Frames accepted for transmission.
     pub sent: u64,

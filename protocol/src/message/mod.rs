@@ -131,7 +131,7 @@ messages! {
     Emergency = 1;
     SafeStateEntered = 4;
     PressureCommand = 4;
-    ServoStatus = 6;
+    ServoStatus = 8;
     GripperCommand = 1;
     GripperStatus = 1;
     CaptureRequest = 3;
@@ -155,7 +155,7 @@ impl Message {
     pub fn validate(&self) -> Result<()> {
         match self {
             Message::PressureCommand(m) => raw12(m.raw),
-            Message::ServoStatus(m) => raw12(m.raw),
+            Message::ServoStatus(m) => raw12(m.raw).and_then(|_| raw12(m.applied)),
             Message::SafeStateEntered(m) => raw12(m.held_raw),
             Message::Observation(m) => {
                 for p in &m.points {

@@ -59,6 +59,10 @@ pub struct ServoStatus {
     /// Measured pressure difference, 12-bit 0..=4095 (same scale as the command).
     #[serde(with = "postcard::fixint::le")]
     pub raw: u16,
+    /// The command now applied, 12-bit: the echo of the command of `seq` (or the held
+    /// pressure in the safe state), so that the controller can verify what reached the drive.
+    #[serde(with = "postcard::fixint::le")]
+    pub applied: u16,
     /// The command was clipped to the drive's range.
     pub saturated: bool,
     /// Safe-state status.

@@ -68,6 +68,7 @@ fn single_message(kind: MessageKind, r: &mut Lcg, round: u64) -> Message {
         MessageKind::ServoStatus => ServoStatus {
             seq: u16v(r),
             raw: raw(r),
+            applied: raw(r),
             saturated: b(r),
             safe_state: [SafeState::Normal, SafeState::HoldLast, SafeState::Vented]
                 [pick(r, 3) as usize],
@@ -164,6 +165,7 @@ pub fn signals(msg: &Message) -> Vec<(&'static str, u64)> {
         Message::ServoStatus(m) => vec![
             ("seq", m.seq as u64),
             ("raw", m.raw as u64),
+            ("applied", m.applied as u64),
             ("saturated", m.saturated as u64),
             ("safe_state", m.safe_state as u64),
         ],

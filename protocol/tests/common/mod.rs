@@ -114,13 +114,15 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
             any::<u16>(),
             raw.clone(),
             any::<bool>(),
-            safe_state()
+            safe_state(),
+            raw.clone()
         )
-            .prop_map(|(n, seq, raw, saturated, safe_state)| Envelope::new(
+            .prop_map(|(n, seq, raw, saturated, safe_state, applied)| Envelope::new(
                 n,
                 ServoStatus {
                     seq,
                     raw,
+                    applied,
                     saturated,
                     safe_state
                 }
