@@ -102,12 +102,16 @@ impl<const N: usize, const D: usize, const M: usize> Trn<N, D, M> {
     }
 
     /// The local affine map of neuron `k` at `u` (8.1): `P_k + A_k (u - w_k)`.
+    #[inline(always)]
     pub fn local_output(&self, k: usize, u: &[f32; D]) -> [f32; M] {
-        let mut out = self.p[k];
-        for (m, o) in out.iter_mut().enumerate() {
+        let (w, p, a) = (&self.w[k], &self.p[k], &self.a[k]);
+        // u - w_k once, not once per row (the same values)
+        let diff: [f32; D] = core::array::from_fn(|d| u[d] - w[d]);
+        let mut out = *p;
+        for (o, row) in out.iter_mut().zip(a.iter()) {
             let mut acc = 0.0;
             for d in 0..D {
-                acc += self.a[k][m][d] * (u[d] - self.w[k][d]);
+                acc += row[d] * diff[d];
             }
             *o += acc;
         }

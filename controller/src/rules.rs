@@ -56,6 +56,7 @@ impl<const K: usize> Falloff<K> {
 
 /// (8.9, 8.17, 8.25): `w_k += gamma(r(k)) (target - w_k)` for the ranked neurons.
 /// The rate of rank `r` is `coeff * gamma.value[r]` (`coeff` = prefactor x time factor).
+#[inline(never)]
 pub fn update_weights<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &mut Trn<N, D, M>,
     ranking: &Ranking<K>,
@@ -63,9 +64,9 @@ pub fn update_weights<const N: usize, const D: usize, const M: usize, const K: u
     coeff: f32,
     target: &[f32; D],
 ) {
-    for (r, &f) in gamma.value.iter().enumerate() {
+    for (&k, &f) in ranking.indices().iter().zip(gamma.value.iter()) {
         let g = coeff * f;
-        let w = &mut net.w[ranking.index(r)];
+        let w = &mut net.w[k as usize];
         for d in 0..D {
             w[d] += g * (target[d] - w[d]);
         }
@@ -74,6 +75,7 @@ pub fn update_weights<const N: usize, const D: usize, const M: usize, const K: u
 
 /// (8.5, 8.11, 8.19, 8.24), normalised: the average over ranks `r < K` of the neurons'
 /// local maps (8.1) at `u`, weighted by `alpha(r)`.
+#[inline(never)]
 pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &Trn<N, D, M>,
     ranking: &Ranking<K>,
@@ -81,10 +83,10 @@ pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: us
     u: &[f32; D],
 ) -> [f32; M] {
     let mut out = [0.0; M];
-    for r in 0..K {
-        let local = net.local_output(ranking.index(r), u);
+    for (&k, &al) in ranking.indices().iter().zip(alpha.value.iter()) {
+        let local = net.local_output(k as usize, u);
         for m in 0..M {
-            out[m] += alpha.value[r] * local[m];
+            out[m] += al * local[m];
         }
     }
     let norm = 1.0 / alpha.sum(K);
@@ -97,6 +99,7 @@ pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: us
 /// Unsupervised (8.12, 8.27): `p_ref` is the coarse pressure and `x` the position it reached
 /// (`v_i`): each local map is taught to produce the applied pressure there.
 /// Supervised (8.18): `p_ref = P_target` and `x = v_target`.
+#[inline(never)]
 pub fn update_pressures<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &mut Trn<N, D, M>,
     ranking: &Ranking<K>,
@@ -105,19 +108,21 @@ pub fn update_pressures<const N: usize, const D: usize, const M: usize, const K:
     p_ref: &[f32; M],
     x: &[f32; D],
 ) {
-    for (r, &f) in gamma.value.iter().enumerate() {
+    for (&k, &f) in ranking.indices().iter().zip(gamma.value.iter()) {
         let g = coeff * f;
-        let k = ranking.index(r);
+        let k = k as usize;
         let local = net.local_output(k, x);
+        let p = &mut net.p[k];
         for m in 0..M {
             // p_ref - P_k - A_k (x - w_k) = p_ref - local
-            net.p[k][m] += g * (p_ref[m] - local[m]);
+            p[m] += g * (p_ref[m] - local[m]);
         }
     }
 }
 
 /// The averaged Jacobian of the fine move (8.14, 8.20, 8.29), normalised, over ranks
 /// `r <= fine_ranks` (S) and `r < K`.
+#[inline(never)]
 pub fn mean_jacobian<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &Trn<N, D, M>,
     ranking: &Ranking<K>,
@@ -126,18 +131,52 @@ pub fn mean_jacobian<const N: usize, const D: usize, const M: usize, const K: us
 ) -> [[f32; D]; M] {
     let n = (fine_ranks + 1).min(K);
     let mut a_bar = [[0.0; D]; M];
-    for r in 0..n {
-        let a = &net.a[ranking.index(r)];
-        let al = alpha.value[r];
-        for m in 0..M {
-            for d in 0..D {
-                a_bar[m][d] += al * a[m][d];
-            }
-        }
+    // three rows, then two, then one at a time (their sums stay in registers: one pass
+    // over the ranks per group, not 40 sums through memory); every entry is still summed
+    // over the ranks in rank order
+    let (ks, als) = (&ranking.indices()[..n], &alpha.value[..n]);
+    let mut m = 0;
+    while m + 3 <= M {
+        let [r0, r1, r2] = weighted_rows::<N, D, M, 3>(net, ks, als, m);
+        a_bar[m] = r0;
+        a_bar[m + 1] = r1;
+        a_bar[m + 2] = r2;
+        m += 3;
+    }
+    while m + 2 <= M {
+        let [r0, r1] = weighted_rows::<N, D, M, 2>(net, ks, als, m);
+        a_bar[m] = r0;
+        a_bar[m + 1] = r1;
+        m += 2;
+    }
+    if m < M {
+        let [r0] = weighted_rows::<N, D, M, 1>(net, ks, als, m);
+        a_bar[m] = r0;
     }
     let norm = 1.0 / alpha.sum(n);
     a_bar.iter_mut().flatten().for_each(|x| *x *= norm);
     a_bar
+}
+
+/// Rows `m0..m0 + R` of `sum_r alpha(r) A_k(r)` over the ranks given, summed in rank order.
+#[inline(always)]
+fn weighted_rows<const N: usize, const D: usize, const M: usize, const R: usize>(
+    net: &Trn<N, D, M>,
+    ks: &[u16],
+    als: &[f32],
+    m0: usize,
+) -> [[f32; D]; R] {
+    assert!(m0 + R <= M);
+    let mut acc = [[0.0; D]; R];
+    for (&k, &al) in ks.iter().zip(als.iter()) {
+        let a = &net.a[k as usize];
+        for j in 0..R {
+            for d in 0..D {
+                acc[j][d] += al * a[m0 + j][d];
+            }
+        }
+    }
+    acc
 }
 
 /// One fine move (8.14): `p_prev + A_bar (target - observed)`, clamped to `±limit`.
@@ -172,6 +211,7 @@ pub fn clamp<const M: usize>(p: &[f32; M], limit: f32) -> [f32; M] {
 /// (READING-NOTES.md); this form is used for both stages.
 ///
 /// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv|| < min_dv`.
+#[inline(never)]
 pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &mut Trn<N, D, M>,
     ranking: &Ranking<K>,
@@ -188,9 +228,9 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
         return Err(Error::ZeroLengthDv);
     }
     let inv = 1.0 / norm2;
-    for (r, &f) in gamma.value.iter().enumerate() {
+    for (&k, &f) in ranking.indices().iter().zip(gamma.value.iter()) {
         let g = coeff * f;
-        let a = &mut net.a[ranking.index(r)];
+        let a = &mut net.a[k as usize];
         for m in 0..M {
             let mut adv = 0.0;
             for d in 0..D {

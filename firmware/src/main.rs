@@ -19,7 +19,9 @@ use core::panic::PanicInfo;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use trn_controller::presets::{self, Ablation, ImageSize, Preset};
-use trn_controller::{Command, Config, Controller, Observation, Task};
+use trn_controller::rank::{RankMode, RankScratch, Ranking};
+use trn_controller::rules::{self, Falloff};
+use trn_controller::{Command, Config, Controller, Observation, Task, RANKS};
 
 /// Both networks and the controller state, all zero bytes at reset: the linker puts it in
 /// `.bss` (no flash image). Set up by `main` before use.
@@ -81,10 +83,177 @@ fn host_config() -> Config {
     presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT)
 }
 
+/// Mean and max of a series of instruction counts.
+#[cfg_attr(feature = "pil", allow(dead_code))]
+#[derive(Clone, Copy)]
+struct Stat {
+    sum: u64,
+    max: u64,
+    n: u64,
+}
+
+#[cfg_attr(feature = "pil", allow(dead_code))]
+impl Stat {
+    const fn new() -> Stat {
+        Stat {
+            sum: 0,
+            max: 0,
+            n: 0,
+        }
+    }
+
+    fn add(&mut self, x: u64) {
+        self.sum += x;
+        self.max = self.max.max(x);
+        self.n += 1;
+    }
+
+    fn mean(&self) -> u64 {
+        self.sum / self.n.max(1)
+    }
+
+    fn print(&self, what: &str) {
+        hprintln!(
+            "phase {}: mean {} max {} instructions",
+            what,
+            self.mean(),
+            self.max
+        );
+    }
+}
+
+/// All `N` squared distances to `u`, the plain loop (no selection, no early exit), folded
+/// into one value so that nothing is optimised away: the cost of the distances alone.
+#[cfg_attr(feature = "pil", allow(dead_code))]
+#[inline(never)]
+fn all_distances(w: &[[f32; 8]; 1000], u: &[f32; 8]) -> f32 {
+    let mut least = f32::INFINITY;
+    for wk in w.iter() {
+        let mut s = 0.0;
+        for d in 0..8 {
+            let diff = u[d] - wk[d];
+            s += diff * diff;
+        }
+        least = least.min(s);
+    }
+    least
+}
+
+/// Per-phase costs, measured by calling the pure functions on the controller's tables
+/// (`rank`, `rules`), before the stateful step that does the same work.
+#[cfg_attr(feature = "pil", allow(dead_code))]
+struct Phases {
+    distances: Stat,
+    rank: Stat,
+    selection: Stat,
+    coarse: Stat,
+    mean_jacobian_fine: Stat,
+    falloff: Stat,
+}
+
+#[cfg_attr(feature = "pil", allow(dead_code))]
+impl Phases {
+    const fn new() -> Phases {
+        Phases {
+            distances: Stat::new(),
+            rank: Stat::new(),
+            selection: Stat::new(),
+            coarse: Stat::new(),
+            mean_jacobian_fine: Stat::new(),
+            falloff: Stat::new(),
+        }
+    }
+
+    /// Measures the pure phases at target `v`; returns (rank + coarse, mean Jacobian + fine).
+    fn measure(
+        &mut self,
+        counter: &mut count::Counter,
+        ctrl: &Controller,
+        ranking: &mut Ranking<RANKS>,
+        v: &[f32; 8],
+    ) -> (u64, u64) {
+        let stage = ctrl.stage1();
+        let net = stage.net();
+        let cfg = stage.config();
+        let alpha = Falloff::<RANKS>::compute(cfg.alpha_range);
+        let n_dist = counter.measure(|| {
+            core::hint::black_box(all_distances(
+                core::hint::black_box(net.weights()),
+                core::hint::black_box(v),
+            ));
+        });
+        // SAFETY: the bench is single-threaded; RANK_SCRATCH is only used here.
+        #[allow(unsafe_code)]
+        let scratch = unsafe { &mut *core::ptr::addr_of_mut!(RANK_SCRATCH) };
+        let n_rank = counter.measure(|| {
+            ranking.compute(
+                net.weights(),
+                core::hint::black_box(v),
+                scratch,
+                RankMode::PartialSelect,
+            );
+        });
+        let n_coarse = counter.measure(|| {
+            core::hint::black_box(rules::coarse_output(
+                net,
+                ranking,
+                &alpha,
+                core::hint::black_box(v),
+            ));
+        });
+        let mut seen = *v;
+        seen[0] += 20.0;
+        let n_mj = counter.measure(|| {
+            let a_bar = rules::mean_jacobian(net, ranking, &alpha, cfg.fine_ranks as usize);
+            core::hint::black_box(rules::fine_output(
+                &[0.1; 5],
+                &a_bar,
+                v,
+                core::hint::black_box(&seen),
+                cfg.pressure_limit,
+            ));
+        });
+        let t = stage.learning_step() + 1;
+        let n_falloff = counter.measure(|| {
+            core::hint::black_box(Falloff::<RANKS>::compute(core::hint::black_box(
+                cfg.sigma_at(t),
+            )));
+        });
+        self.falloff.add(n_falloff);
+        self.distances.add(n_dist);
+        self.rank.add(n_rank);
+        self.selection.add(n_rank.saturating_sub(n_dist));
+        self.coarse.add(n_coarse);
+        self.mean_jacobian_fine.add(n_mj);
+        (n_rank + n_coarse, n_mj)
+    }
+
+    fn print(&self) {
+        self.distances
+            .print("rank: distances, all N (plain loop, reference)");
+        self.rank
+            .print("rank: Ranking::compute (distances + selection + sort of K)");
+        self.selection
+            .print("rank: selection + sort of K (compute - plain distances)");
+        self.coarse.print("coarse output (rules::coarse_output)");
+        self.mean_jacobian_fine
+            .print("mean Jacobian + fine output (rules::mean_jacobian + fine_output)");
+        self.falloff.print(
+            "neighbourhood falloff (rules::Falloff::compute, each learning begin: sigma varies)",
+        );
+    }
+}
+
+/// Scratch for the bench's own ranking (the controller's is private to its stage).
+#[cfg_attr(feature = "pil", allow(dead_code))]
+static mut RANK_SCRATCH: RankScratch<1000> = RankScratch::new();
+
 #[cfg_attr(feature = "pil", allow(dead_code))]
 fn bench(ctrl: &mut Controller) -> ! {
     let mut counter = count::Counter::new();
     let per_tick = counter.calibrate();
+    let mut phases = Phases::new();
+    let mut ranking = Ranking::<RANKS>::new();
 
     // stage-1 control steps: rank + coarse output, no learning
     let mut rng = 0x1234_5678u32;
@@ -92,6 +261,7 @@ fn bench(ctrl: &mut Controller) -> ! {
     for _ in 0..STEPS {
         let p: [f32; 5] = core::array::from_fn(|_| pseudo_random(&mut rng));
         let v = plant(&p);
+        phases.measure(&mut counter, ctrl, &mut ranking, &v);
         let n = counter.measure(|| {
             let _ = ctrl.stage1_mut().begin(&v, None, false);
             ctrl.stage1_mut().abort();
@@ -100,32 +270,65 @@ fn bench(ctrl: &mut Controller) -> ! {
         ctl_max = ctl_max.max(n);
     }
 
-    // stage-1 learning steps: coarse move and two fine moves, with every update
+    // stage-1 learning steps: coarse move and two fine moves, with every update. Each call
+    // of the state machine is timed; the updates' costs are derived from those by
+    // subtracting the pure phases measured just before on the same tables.
     let (mut learn_sum, mut learn_max) = (0u64, 0u64);
+    let mut weights = Stat::new(); // begin - (rank + coarse), unsupervised steps
+    let mut weights_sup = Stat::new(); // the same, supervised: + pressures (8.18)
+    let mut pressures = Stat::new(); // first observe - (mean Jacobian + fine), unsupervised
+    let mut jacobians = Stat::new(); // later observes that moved - (mean Jacobian + fine)
+    let mut plant_cost = Stat::new();
     for step in 0..STEPS {
         let p: [f32; 5] = core::array::from_fn(|_| pseudo_random(&mut rng));
         let v = plant(&p);
         let supervised = if step < 5 { Some(p) } else { None };
-        let n = counter.measure(|| {
-            let mut cmd = ctrl.begin(Task::Stage1 {
+        let (rank_coarse, mj_fine) = phases.measure(&mut counter, ctrl, &mut ranking, &v);
+        // each call of the state machine timed on its own; the step is their sum (the
+        // synthetic plant between the calls is not part of it: timed apart)
+        let mut calls = [0u64; 4];
+        let mut moved = [false; 4]; // the call answered with a move (a fine move was computed)
+        let mut ncalls = 1;
+        let mut cmd = None;
+        calls[0] = counter.measure(|| {
+            cmd = Some(ctrl.begin(Task::Stage1 {
                 v,
                 supervised,
                 learn: true,
-            });
-            for _ in 0..3 {
-                match cmd {
-                    Ok(Command::Move { pressures, .. }) => {
-                        let mut q = [0.0; 5];
-                        q.copy_from_slice(&pressures);
-                        cmd = ctrl.observe(Observation::Lights(plant(&q)));
-                    }
-                    _ => break,
-                }
-            }
-            ctrl.abort();
+            }));
         });
+        for i in 1..calls.len() {
+            let c = &mut calls[i];
+            let Some(Ok(Command::Move { pressures, .. })) = cmd else {
+                break;
+            };
+            let mut q = [0.0; 5];
+            q.copy_from_slice(&pressures);
+            let mut seen = [0.0; 8];
+            plant_cost.add(counter.measure(|| seen = plant(&q)));
+            *c = counter.measure(|| {
+                cmd = Some(ctrl.observe(Observation::Lights(seen)));
+            });
+            moved[ncalls] = matches!(cmd, Some(Ok(Command::Move { .. })));
+            ncalls += 1;
+        }
+        let n = calls.iter().sum::<u64>() + counter.measure(|| ctrl.abort());
         learn_sum += n;
         learn_max = learn_max.max(n);
+        let derived = |x: u64, y: u64| x.saturating_sub(y);
+        if supervised.is_some() {
+            weights_sup.add(derived(calls[0], rank_coarse));
+        } else {
+            weights.add(derived(calls[0], rank_coarse));
+            if ncalls > 1 && moved[1] {
+                pressures.add(derived(calls[1], mj_fine));
+            }
+        }
+        for i in 2..ncalls {
+            if moved[i] {
+                jacobians.add(derived(calls[i], mj_fine));
+            }
+        }
     }
     let finite = ctrl.stage1().net().is_finite();
     let stack = count::stack_high_water_mark();
@@ -144,6 +347,13 @@ fn bench(ctrl: &mut Controller) -> ! {
         learn_sum / STEPS as u64,
         learn_max
     );
+    phases.print();
+    weights.print("update weights (derived: learning begin - rank - coarse, unsupervised)");
+    weights_sup
+        .print("update weights + pressures (derived: learning begin - rank - coarse, supervised)");
+    pressures.print("update pressures (derived: 1st observe - mean Jacobian - fine)");
+    jacobians.print("update Jacobians (derived: later observes that move - mean Jacobian - fine)");
+    plant_cost.print("synthetic plant, per call (between the calls, not in the step)");
     hprintln!("stack high-water mark: {} bytes", stack);
     hprintln!("tables finite after learning: {}", finite);
     if !finite {

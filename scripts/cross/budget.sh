@@ -5,6 +5,8 @@
 #   .data) <= 128 KiB, stack high-water mark <= 8 KiB, stage-1 learning step <= 400,000
 #   executed instructions (the largest of the benchmark's steps; QEMU models no pipeline, so
 #   instructions are a proxy for cycles). The thumbv6m-none-eabi build is reported beside it.
+#   The benchmark's per-phase costs (its "phase ...: mean M max X instructions" lines: the
+#   distances, the selection, the averages and each update) are repeated in the summary.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
@@ -29,7 +31,8 @@ echo "$out"
 control=$(echo "$out" | sed -n 's/^stage1 control step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
 learn=$(echo "$out" | sed -n 's/^stage1 learning step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \2/p')
 stack=$(echo "$out" | sed -n 's/^stack high-water mark: \([0-9]*\) bytes/\1/p')
-[ -n "$control" ] && [ -n "$learn" ] && [ -n "$stack" ] || { echo "budget: FAIL: the benchmark printed no figures" >&2; exit 1; }
+phases=$(echo "$out" | grep -c '^phase ' || true)
+[ -n "$control" ] && [ -n "$learn" ] && [ -n "$stack" ] && [ "$phases" -gt 0 ] || { echo "budget: FAIL: the benchmark printed no figures" >&2; exit 1; }
 read -r learn_mean learn_max <<< "$learn"
 read -r control_mean control_max <<< "$control"
 
@@ -53,5 +56,9 @@ check "stage-1 learning step, max (coarse + 2 fine + updates)" "$learn_max" 4000
 printf '%-58s %10s\n' "stage-1 learning step, mean" "$learn_mean"
 printf '%-58s %10s\n' "stage-1 control step (rank + coarse), mean / max" "$control_mean / $control_max"
 printf '%-58s %10s\n' "thumbv6m-none-eabi: static RAM / flash (bytes, not run)" "$ram6 / $flash6"
+echo
+printf '%-90s %8s %8s\n' "stage-1 phase (instructions)" "mean" "max"
+echo "$out" | sed -n 's/^phase \(.*\): mean \([0-9]*\) max \([0-9]*\) instructions$/\1\t\2\t\3/p' |
+    while IFS=$'\t' read -r name mean max; do printf '%-90s %8s %8s\n' "$name" "$mean" "$max"; done
 [ $fail -eq 0 ] || { echo "budget: FAIL" >&2; exit 1; }
 echo "budget: all within limits"
