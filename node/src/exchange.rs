@@ -181,8 +181,12 @@ impl Pending {
     ) -> Result<bool, GaveUp> {
         let (since, retries) = match self {
             Pending::None => return Ok(false),
-            Pending::Servos { since_ms, retries, .. }
-            | Pending::Observation { since_ms, retries, .. }
+            Pending::Servos {
+                since_ms, retries, ..
+            }
+            | Pending::Observation {
+                since_ms, retries, ..
+            }
             | Pending::Gripper { since_ms, retries } => (since_ms, retries),
         };
         if now_ms.wrapping_sub(*since) < timeout_ms {
@@ -224,5 +228,18 @@ impl Pending {
             Pending::None => {}
         }
         Ok(true)
+    }
+}
+
+/// The controller's input from an observation (its points valid).
+pub(crate) fn reading(o: &trn_protocol::Observation) -> trn_controller::Observation {
+    let p = &o.points;
+    match o.what {
+        CaptureKind::GripperLights => trn_controller::Observation::Lights([
+            p[0].x, p[0].y, p[1].x, p[1].y, p[2].x, p[2].y, p[3].x, p[3].y,
+        ]),
+        CaptureKind::GripperCentre => {
+            trn_controller::Observation::Centre([p[0].x, p[0].y, p[1].x, p[1].y])
+        }
     }
 }

@@ -19,6 +19,7 @@ mod exchange;
 mod node;
 mod outbox;
 mod service;
+mod stats;
 
 pub use codes::controller_error_code;
 pub use config::NodeConfig;

@@ -17,27 +17,7 @@ use crate::codes;
 use crate::config::NodeConfig;
 use crate::exchange::{GaveUp, Pending, ServoAnswer};
 use crate::outbox::{push, send, FrameError, Outbox};
-
-/// Counters of what the node saw.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct NodeStats {
-    /// Trials started.
-    pub trials: u32,
-    /// Trials aborted (invalid observations, timeouts, rejected inputs, drives not normal).
-    pub aborted: u32,
-    /// Answers ignored because they were not the awaited one (late, duplicated, foreign).
-    pub stale_answers: u32,
-    /// Requests repeated after a timeout (commands, captures, the gripper's close).
-    pub retries: u32,
-    /// Commands repeated because a drive confirmed another value than commanded.
-    pub corrected_commands: u32,
-    /// Targets received again (repeats of the runner): ignored or answered from the cache.
-    pub repeated_targets: u32,
-    /// Messages not meant for the controller, ignored.
-    pub ignored: u32,
-    /// Frames dropped by the reassembler (malformed, lost or corrupt segments).
-    pub frame_errors: u32,
-}
+pub use crate::stats::NodeStats;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PendingGrasp {
@@ -80,11 +60,7 @@ fn fine_moves(n: u8) -> FineMoves {
 }
 
 fn error(out: &mut Outbox, code: u16, detail: u32) {
-    push(
-        out,
-        NodeId::Controller,
-        ErrorReport { code, detail }.into(),
-    );
+    push(out, NodeId::Controller, ErrorReport { code, detail }.into());
 }
 
 impl ControllerNode {
@@ -398,23 +374,7 @@ impl ControllerNode {
             }
         }
         self.pending = Pending::None;
-        let obs = match o.what {
-            CaptureKind::GripperLights => {
-                let mut v = [0.0; 8];
-                for (i, p) in o.points.iter().enumerate() {
-                    v[2 * i] = p.x;
-                    v[2 * i + 1] = p.y;
-                }
-                trn_controller::Observation::Lights(v)
-            }
-            CaptureKind::GripperCentre => trn_controller::Observation::Centre([
-                o.points[0].x,
-                o.points[0].y,
-                o.points[1].x,
-                o.points[1].y,
-            ]),
-        };
-        match ctrl.observe(obs) {
+        match ctrl.observe(crate::exchange::reading(o)) {
             Ok(cmd) => self.execute(cmd, now_ms, out),
             Err(e) => self.reject(ctrl, e, out),
         }
@@ -474,7 +434,11 @@ impl ControllerNode {
     }
 
     fn reject(&mut self, ctrl: &mut Controller, e: CtrlError, out: &mut Outbox) {
-        error(out, codes::CONTROLLER_ERROR, codes::controller_error_code(&e));
+        error(
+            out,
+            codes::CONTROLLER_ERROR,
+            codes::controller_error_code(&e),
+        );
         self.abort(ctrl, out);
     }
 

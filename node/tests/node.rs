@@ -70,7 +70,8 @@ fn capture(
     let ok = confirmations(out);
     assert_eq!(ok.len(), joints, "{out:?}");
     assert!(
-        !out.iter().any(|e| matches!(e.msg, Message::CaptureRequest(_))),
+        !out.iter()
+            .any(|e| matches!(e.msg, Message::CaptureRequest(_))),
         "no capture before the drives confirmed: {out:?}"
     );
     let mut after = Outbox::new();
@@ -399,7 +400,9 @@ fn repeats_are_recognised_and_lost_answers_requested_again() {
     for (j, env) in ok.iter().enumerate() {
         let mut env = *env;
         if j == 2 {
-            let Message::ServoStatus(mut s) = env.msg else { panic!() };
+            let Message::ServoStatus(mut s) = env.msg else {
+                panic!()
+            };
             s.applied = (s.applied + 1) % 4096;
             env.msg = s.into();
         }
@@ -410,8 +413,14 @@ fn repeats_are_recognised_and_lost_answers_requested_again() {
         .iter()
         .filter(|e| matches!(e.msg, Message::PressureCommand(_)))
         .collect();
-    assert_eq!(again.len(), 1, "the corrupted command is sent again: {out:?}");
-    assert!(!out.iter().any(|e| matches!(e.msg, Message::CaptureRequest(_))));
+    assert_eq!(
+        again.len(),
+        1,
+        "the corrupted command is sent again: {out:?}"
+    );
+    assert!(!out
+        .iter()
+        .any(|e| matches!(e.msg, Message::CaptureRequest(_))));
     out.clear();
     n.poll(&mut c, NodeConfig::default().reply_timeout_ms + 2, &mut out);
     assert_eq!(
@@ -452,12 +461,17 @@ fn a_move_a_drive_did_not_make_is_not_trusted() {
     n.on_message(&mut c, &stage1(6), 0, &mut out);
     let ok = confirmations(&out);
     out.clear();
-    let Message::ServoStatus(mut s) = ok[1].msg else { panic!() };
+    let Message::ServoStatus(mut s) = ok[1].msg else {
+        panic!()
+    };
     s.safe_state = SafeState::HoldLast;
     n.on_message(&mut c, &Envelope::new(ok[1].node, s.into()), 1, &mut out);
     assert_eq!(
         errors(&out),
-        vec![(codes::SERVO_NOT_NORMAL, 1 << 8 | 1), (codes::TRIAL_ABORTED, 6)]
+        vec![
+            (codes::SERVO_NOT_NORMAL, 1 << 8 | 1),
+            (codes::TRIAL_ABORTED, 6)
+        ]
     );
     assert!(!c.busy());
 }
@@ -471,5 +485,8 @@ fn mode_changes_are_echoed() {
         mode: trn_protocol::Mode::Mature,
     };
     n.on_message(&mut c, &to_ctrl(m.into()), 0, &mut out);
-    assert_eq!(out.as_slice(), &[Envelope::new(NodeId::Broadcast, m.into())]);
+    assert_eq!(
+        out.as_slice(),
+        &[Envelope::new(NodeId::Broadcast, m.into())]
+    );
 }

@@ -41,7 +41,12 @@ fn fault_matrix(fault: &str) {
         for rate in [0.01, 0.05] {
             let spec = format!("{fault}={rate}");
             let r = run(fd, Some(&spec)).unwrap_or_else(|e| panic!("{spec} fd {fd}: {e}"));
-            let injected: u64 = r.bus_stats.injected.as_ref().unwrap().iter()
+            let injected: u64 = r
+                .bus_stats
+                .injected
+                .as_ref()
+                .unwrap()
+                .iter()
                 .filter(|(k, _)| !matches!(k.as_str(), "sent" | "delivered"))
                 .map(|(_, v)| v)
                 .sum();

@@ -81,7 +81,10 @@ fn a_silent_bus_is_a_typed_error() {
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
     let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
-    let timing = trn_sim::experiment::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(200));
+    let timing = trn_sim::experiment::runner::Timing::new(
+        Duration::from_millis(50),
+        Duration::from_millis(200),
+    );
     let mut s = Runner::new(rig, 1, timing);
     let _other = bus.port();
     let e = s
@@ -108,7 +111,10 @@ fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
     let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
-    let timing = trn_sim::experiment::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(1500));
+    let timing = trn_sim::experiment::runner::Timing::new(
+        Duration::from_millis(50),
+        Duration::from_millis(1500),
+    );
     let mut s = Runner::new(rig, 1, timing);
     // a controller that sends one heartbeat, then dies
     let mut ctrl = bus.port();

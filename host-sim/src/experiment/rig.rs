@@ -154,7 +154,9 @@ where
             if left.is_zero() {
                 return Ok(None);
             }
-            let frame = self.port.receive_timeout(left.min(Duration::from_millis(50)))?;
+            let frame = self
+                .port
+                .receive_timeout(left.min(Duration::from_millis(50)))?;
             self.poll()?;
             let Some(frame) = frame else { continue };
             self.stats.frames_in += 1;
@@ -198,11 +200,13 @@ where
         let gripper = self.gripper.on_message(env, &mut out);
         self.send_all(&out)?;
         Ok(match (served, gripper, env.node) {
-            (Served::Capture(c), _, _) => Some(Event::Captured(Box::new(c))),
+            (Served::Capture(c), _, _) => Some(Event::Captured(c)),
             (Served::Repeat, _, _) => Some(Event::Progress),
             (_, Some(closed), _) => Some(Event::Gripper(closed)),
             _ if answered => Some(Event::Progress),
-            (_, _, NodeId::Controller | NodeId::Broadcast) if !env.msg.kind().is_command() || env.node == NodeId::Broadcast => {
+            (_, _, NodeId::Controller | NodeId::Broadcast)
+                if !env.msg.kind().is_command() || env.node == NodeId::Broadcast =>
+            {
                 if matches!(env.msg, Message::Heartbeat(_)) {
                     self.stats.heartbeats += 1;
                 }

@@ -229,7 +229,7 @@ where
         let Some(target) = set_up else {
             return Ok(rec);
         };
-        let start = start_messages(trial, &spec, &target);
+        let start = start_messages(trial, spec, &target);
         self.send_all(&start)?;
         let expect_reports = if kind.is_grasp() { 2 } else { 1 };
         let mut closed = false;

@@ -224,7 +224,11 @@ pub fn check_failures(r: &Report) -> Result<()> {
     let mut reasons = std::collections::BTreeMap::<String, usize>::new();
     for f in &failed {
         // the same reason with other numbers (trial, seq) counts together
-        let kind: String = f.reason.chars().map(|c| if c.is_ascii_digit() { 'N' } else { c }).collect();
+        let kind: String = f
+            .reason
+            .chars()
+            .map(|c| if c.is_ascii_digit() { 'N' } else { c })
+            .collect();
         *reasons.entry(kind).or_default() += 1;
     }
     Err(Error::TooManyFailures {

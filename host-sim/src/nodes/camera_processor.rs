@@ -47,12 +47,12 @@ pub struct CameraProcessor {
 }
 
 /// What a message was for the camera processor.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Served {
     /// Not a capture request for it.
     Nothing,
     /// A new capture: the arm settled, both cameras read.
-    Capture(Capture),
+    Capture(Box<Capture>),
     /// A repeat of the last request (its observation was lost): the same observation sent
     /// again, no new reading.
     Repeat,
@@ -138,11 +138,11 @@ impl CameraProcessor {
         };
         self.last = Some(obs);
         out.push(Envelope::new(NodeId::CameraProcessor, obs.into()));
-        Served::Capture(Capture {
+        Served::Capture(Box::new(Capture {
             seq: req.seq,
             sight,
             pose: plant.gripper_pose(),
-        })
+        }))
     }
 }
 
@@ -188,7 +188,10 @@ mod tests {
         // reading, no time; an older request: nothing
         let t = plant.time_s();
         let repeat = request(42, CaptureKind::GripperCentre);
-        assert_eq!(cam.on_message(&mut plant, &repeat, &mut out), Served::Repeat);
+        assert_eq!(
+            cam.on_message(&mut plant, &repeat, &mut out),
+            Served::Repeat
+        );
         assert_eq!(out[0], out[1]);
         assert_eq!(plant.time_s(), t);
         let old = request(41, CaptureKind::GripperCentre);

@@ -186,15 +186,26 @@ mod tests {
         let mut plant = Plant::new(&SimConfig::default(), 1).unwrap();
         let mut d = ServoDrive::new(Joint::new(0).unwrap(), HeartbeatConfig::default(), 0);
         let mut out = Outbox::new();
-        assert!(d.on_message(&mut plant, &command(0, 10, 3000), 0, &mut out).unwrap());
-        assert!(d.on_message(&mut plant, &command(0, 10, 3000), 0, &mut out).unwrap());
+        assert!(d
+            .on_message(&mut plant, &command(0, 10, 3000), 0, &mut out)
+            .unwrap());
+        assert!(d
+            .on_message(&mut plant, &command(0, 10, 3000), 0, &mut out)
+            .unwrap());
         assert_eq!(out.len(), 2);
         assert_eq!(out[0], out[1], "the same status again");
-        assert!(!d.on_message(&mut plant, &command(0, 9, 100), 0, &mut out).unwrap());
+        assert!(!d
+            .on_message(&mut plant, &command(0, 9, 100), 0, &mut out)
+            .unwrap());
         plant.advance(1.0);
-        assert!(plant.joints()[0].pressure() > 0.4, "the late command 9 was not applied");
+        assert!(
+            plant.joints()[0].pressure() > 0.4,
+            "the late command 9 was not applied"
+        );
         // after a wrap of the counter a new command is new
-        assert!(d.on_message(&mut plant, &command(0, 11, 1000), 0, &mut out).unwrap());
+        assert!(d
+            .on_message(&mut plant, &command(0, 11, 1000), 0, &mut out)
+            .unwrap());
     }
 
     #[test]

@@ -101,7 +101,11 @@ impl Peer {
     /// Ends the controller's side after the session: joins the thread (returning the
     /// controller with its tables) or waits for the process, killing it when the session
     /// failed or it does not exit within 10 s.
-    pub fn finish(self, session_ok: bool, bus: &str) -> Result<Option<(Box<Controller>, LoopStats)>> {
+    pub fn finish(
+        self,
+        session_ok: bool,
+        bus: &str,
+    ) -> Result<Option<(Box<Controller>, LoopStats)>> {
         let bus_err = |msg: String| Error::BusOpen {
             bus: bus.to_string(),
             msg,

@@ -92,9 +92,22 @@ mod parse_tests {
         let f: FaultConfig = "drop=0.05,dup=0.01,reorder=0.02,corrupt=0.03,truncate=0.04"
             .parse()
             .unwrap();
-        assert_eq!((f.drop, f.duplicate, f.delay, f.corrupt, f.truncate), (0.05, 0.01, 0.02, 0.03, 0.04));
-        assert_eq!((f.max_delay_frames, f.corrupt_scope), (8, CorruptScope::LongMessages));
-        for bad in ["drop", "drop=x", "drop=2", "drop=-0.1", "jam=0.1", "drop=nan"] {
+        assert_eq!(
+            (f.drop, f.duplicate, f.delay, f.corrupt, f.truncate),
+            (0.05, 0.01, 0.02, 0.03, 0.04)
+        );
+        assert_eq!(
+            (f.max_delay_frames, f.corrupt_scope),
+            (8, CorruptScope::LongMessages)
+        );
+        for bad in [
+            "drop",
+            "drop=x",
+            "drop=2",
+            "drop=-0.1",
+            "jam=0.1",
+            "drop=nan",
+        ] {
             assert!(bad.parse::<FaultConfig>().is_err(), "{bad}");
         }
     }

@@ -117,17 +117,19 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
             safe_state(),
             raw.clone()
         )
-            .prop_map(|(n, seq, raw, saturated, safe_state, applied)| Envelope::new(
-                n,
-                ServoStatus {
-                    seq,
-                    raw,
-                    applied,
-                    saturated,
-                    safe_state
-                }
-                .into()
-            )),
+            .prop_map(
+                |(n, seq, raw, saturated, safe_state, applied)| Envelope::new(
+                    n,
+                    ServoStatus {
+                        seq,
+                        raw,
+                        applied,
+                        saturated,
+                        safe_state
+                    }
+                    .into()
+                )
+            ),
         (any::<u16>(), capture_kind()).prop_map(|(seq, what)| Envelope::new(
             NodeId::CameraProcessor,
             CaptureRequest { seq, what }.into()
