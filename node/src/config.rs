@@ -23,11 +23,12 @@ impl NodeConfig {
     };
 
     /// The host's loop (in-process bus, SocketCAN): the simulator answers within a
-    /// millisecond, so a lost frame is repeated after 10 ms, up to 20 times (a repeat that
+    /// millisecond, so a lost frame is repeated after 10 ms, up to 50 times: half a second
+    /// before a trial is given up, ample for a loaded machine's scheduling (a repeat that
     /// crosses a late answer is harmless: both sides recognise it).
     pub const HOST: NodeConfig = NodeConfig {
         reply_timeout_ms: 10,
-        retries: 20,
+        retries: 50,
         ..NodeConfig::DEFAULT
     };
 }
