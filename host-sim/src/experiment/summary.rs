@@ -131,22 +131,15 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
             px(r.fine_moves_mean),
             "2-3",
         );
+        let pair = |a: f32, b: f32| format!("{} / {}", px(a), px(b));
         row(
             "  stage 1 / stage 2 final error (px)",
-            format!(
-                "{} / {}",
-                px(r.eval.stage1_final_px),
-                px(r.eval.stage2_final_px)
-            ),
+            pair(r.eval.stage1_final_px, r.eval.stage2_final_px),
             "a little < 1",
         );
         row(
             "  stage 1 pose error (mm / deg)",
-            format!(
-                "{} / {}",
-                px(r.eval.stage1_error_mm),
-                px(r.eval.stage1_error_deg)
-            ),
+            pair(r.eval.stage1_error_mm, r.eval.stage1_error_deg),
             "",
         );
         let v = &r.visit_and_return;
