@@ -105,8 +105,11 @@ pub struct Common {
     /// Simulator configuration (TOML); the built-in defaults when absent.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Bus: `inproc` (controller node in a thread) or `socketcan:IFACE` (a separate
-    /// `controller-node` process on IFACE).
+    /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
+    /// separate `controller-node` process on IFACE: vcan0 or a real adapter) or `slcan:qemu`
+    /// (the firmware in QEMU, CAN frames as SLCAN over its UART; build it first with
+    /// `bash scripts/cross/pil.sh --build-only`; it runs the project preset seeded with 1 on
+    /// CAN 2.0).
     #[arg(long, default_value = "inproc")]
     pub bus: String,
     /// Use CAN FD framing (one frame per message) instead of CAN 2.0 segmentation.
