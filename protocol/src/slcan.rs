@@ -102,6 +102,11 @@ impl LineDecoder {
         }
     }
 
+    /// True when no partial line is waiting.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0 && !self.overlong
+    }
+
     /// Feeds one byte. At the end of a line (`\r` or `\n`) returns its frame, or the error
     /// of a malformed or overlong line; empty lines and the bytes within a line give `None`.
     pub fn push(&mut self, b: u8) -> Option<Result<CanFrame>> {

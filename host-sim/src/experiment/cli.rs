@@ -112,6 +112,10 @@ pub struct Common {
     /// CAN 2.0).
     #[arg(long, default_value = "inproc")]
     pub bus: String,
+    /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a
+    /// USB-CAN adapter at `slcan:/dev/DEVICE`): start none; it keeps its own tables.
+    #[arg(long)]
+    pub external_controller: bool,
     /// Use CAN FD framing (one frame per message) instead of CAN 2.0 segmentation.
     #[arg(long)]
     pub fd: bool,
@@ -169,6 +173,7 @@ impl Common {
             seed,
             config: None,
             bus: "inproc".into(),
+            external_controller: false,
             fd: false,
             preset,
             ablation,

@@ -24,7 +24,7 @@ use crate::error::{io, Error, Result};
 use crate::plant::{Plant, SimConfig};
 use crate::transport::controller_loop::{ControllerThread, LoopStats};
 use crate::transport::peer::{self, Peer};
-use crate::transport::{slcan_qemu, BusSpec};
+use crate::transport::{slcan_qemu, slcan_serial, BusSpec};
 
 /// The controller configuration for a preset and an ablation, for the simulator's cameras.
 pub fn controller_config(preset: Preset, ablation: Ablation, sim: &SimConfig) -> Config {
@@ -76,6 +76,14 @@ pub fn run_plan_with(
         BusMode::Classic
     };
     let bus = BusSpec::parse(&common.bus)?;
+    if common.external_controller
+        && (checkpoint_in.is_some() || checkpoint_out.is_some() || bus == BusSpec::InProc)
+    {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "an external controller (on socketcan:IFACE or slcan:/dev/DEVICE) keeps its own tables: no --checkpoint-in/--checkpoint-out".into(),
+        });
+    }
     if common.faults.is_some() && bus != BusSpec::InProc {
         return Err(Error::BusOpen {
             bus: common.bus.clone(),
@@ -166,23 +174,36 @@ pub fn run_plan_with(
             .map_err(bus_err)?;
             setup.drive(port, plant, Peer::Process(child), &mut report)?
         }
+        BusSpec::SlcanSerial(ref path) => {
+            if !common.external_controller {
+                return Err(bus_err(
+                    "a serial adapter connects to a controller on a real bus: add --external-controller".into(),
+                ));
+            }
+            let port = slcan_serial::SerialSlcan::open(path).map_err(bus_err)?;
+            setup.drive(port, plant, Peer::External, &mut report)?
+        }
         BusSpec::SocketCan(ref iface) => {
             #[cfg(target_os = "linux")]
             {
                 let port = trn_protocol::bus::SocketCanPort::open(iface)
                     .map_err(|e| bus_err(e.to_string()))?;
-                let args = peer::NodeArgs {
-                    iface,
-                    seed: common.seed,
-                    preset: common.preset.name(),
-                    ablation: common.ablation.name(),
-                    config: common.config.as_deref(),
-                    fd: common.fd,
-                    checkpoint_in,
-                    checkpoint_out,
-                };
-                let child = peer::spawn_controller_node(&args, &common.bus)?;
-                setup.drive(port, plant, Peer::Process(child), &mut report)?
+                if common.external_controller {
+                    setup.drive(port, plant, Peer::External, &mut report)?
+                } else {
+                    let args = peer::NodeArgs {
+                        iface,
+                        seed: common.seed,
+                        preset: common.preset.name(),
+                        ablation: common.ablation.name(),
+                        config: common.config.as_deref(),
+                        fd: common.fd,
+                        checkpoint_in,
+                        checkpoint_out,
+                    };
+                    let child = peer::spawn_controller_node(&args, &common.bus)?;
+                    setup.drive(port, plant, Peer::Process(child), &mut report)?
+                }
             }
             #[cfg(not(target_os = "linux"))]
             {
@@ -288,7 +309,7 @@ impl Setup<'_> {
             // the firmware's clock runs about ten times slower than the wall clock under
             // QEMU's instruction counting, and its own repeats are 200 ms of it apart
             BusSpec::SlcanQemu => Duration::from_secs(20),
-            BusSpec::SocketCan(_) => Duration::from_millis(300),
+            BusSpec::SocketCan(_) | BusSpec::SlcanSerial(_) => Duration::from_millis(300),
             BusSpec::InProc => Duration::from_millis(60),
         };
         let hb = heartbeat_for(self.bus);

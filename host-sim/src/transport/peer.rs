@@ -16,6 +16,8 @@ pub enum Peer {
     Thread(ControllerThread),
     /// A child process.
     Process(Child),
+    /// A controller this run did not start (a board on the bus): nothing to stop.
+    External,
 }
 
 /// The `controller-node` executable: `$TRN_CONTROLLER_NODE`, else beside this executable
@@ -118,6 +120,7 @@ impl Peer {
                 let (ctrl, stats) = t.join().map_err(|e| bus_err(e.to_string()))?;
                 Ok(Some((ctrl, stats)))
             }
+            Peer::External => Ok(None),
             Peer::Process(mut child) => {
                 let deadline = Instant::now() + Duration::from_secs(10);
                 loop {
