@@ -23,7 +23,7 @@ fn run(fd: bool, faults: Option<&str>) -> trn_sim::Result<Report> {
         eval_targets: PLAN.eval_targets,
         grasps: PLAN.grasps,
         faults: faults.map(|f| f.parse::<FaultConfig>().unwrap()),
-        ..Common::inproc(5, Preset::Project, Ablation::None)
+        ..Common::inproc(100, Preset::Project, Ablation::None)
     };
     run_plan(&common, PLAN, None, None, "faults")
 }
@@ -107,7 +107,7 @@ fn heavy_loss_ends_with_a_result_or_a_clear_error() {
             eval_targets: 5,
             grasps: 2,
             faults: Some("drop=0.2".parse().unwrap()),
-            ..Common::inproc(6, Preset::Project, Ablation::None)
+            ..Common::inproc(101, Preset::Project, Ablation::None)
         };
         let _ = tx.send(run_plan(&common, plan, None, None, "faults").map(|r| r.failed_trials));
     });
