@@ -139,20 +139,15 @@ pub fn run_plan_with(
             let peer = Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode));
             let done = setup.drive(inproc.port(), plant, peer, &mut report)?;
             let s = inproc.stats();
-            report.bus_stats.injected = Some(
-                [
-                    ("sent", s.sent),
-                    ("delivered", s.delivered),
-                    ("dropped", s.dropped),
-                    ("duplicated", s.duplicated),
-                    ("corrupted", s.corrupted),
-                    ("truncated", s.truncated),
-                    ("delayed", s.delayed),
-                ]
-                .into_iter()
-                .map(|(k, v)| (k.to_string(), v))
-                .collect(),
-            );
+            report.bus_stats.injected = Some(counts([
+                ("sent", s.sent),
+                ("delivered", s.delivered),
+                ("dropped", s.dropped),
+                ("duplicated", s.duplicated),
+                ("corrupted", s.corrupted),
+                ("truncated", s.truncated),
+                ("delayed", s.delayed),
+            ]));
             done
         }
         BusSpec::SlcanQemu => {
@@ -214,19 +209,14 @@ pub fn run_plan_with(
     };
     if let Some((_, stats)) = &ctrl {
         let n = stats.node;
-        report.bus_stats.controller = Some(
-            [
-                ("retries", n.retries),
-                ("corrected_commands", n.corrected_commands),
-                ("repeated_targets", n.repeated_targets),
-                ("stale_answers", n.stale_answers),
-                ("frame_errors", n.frame_errors),
-                ("aborted", n.aborted),
-            ]
-            .into_iter()
-            .map(|(k, v)| (k.to_string(), v))
-            .collect(),
-        );
+        report.bus_stats.controller = Some(counts([
+            ("retries", n.retries),
+            ("corrected_commands", n.corrected_commands),
+            ("repeated_targets", n.repeated_targets),
+            ("stale_answers", n.stale_answers),
+            ("frame_errors", n.frame_errors),
+            ("aborted", n.aborted),
+        ]));
     }
     report.bus_stats.faults = common.faults.map(|f| format!("{f:?}"));
     if let (Some((ctrl, _)), Some(p)) = (ctrl, checkpoint_out) {
@@ -235,6 +225,11 @@ pub fn run_plan_with(
     report.wall_s = started.elapsed().as_secs_f64();
     write_outputs(common, &report)?;
     Ok(report)
+}
+
+/// Named counters for the report.
+fn counts<T, const N: usize>(pairs: [(&str, T); N]) -> std::collections::BTreeMap<String, T> {
+    pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
 }
 
 fn write_outputs(common: &Common, report: &Report) -> Result<()> {
@@ -303,7 +298,8 @@ impl Setup<'_> {
     where
         P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
     {
-        let rig = Rig::new(port, plant, self.mode, heartbeat_for(self.bus));
+        let hb = heartbeat_for(self.bus);
+        let rig = Rig::new(port, plant, self.mode, hb);
         let silence = Duration::from_secs_f64(self.common.bus_timeout_s);
         let reply = match self.bus {
             // the firmware's clock runs about ten times slower than the wall clock under
@@ -312,7 +308,6 @@ impl Setup<'_> {
             BusSpec::SocketCan(_) | BusSpec::SlcanSerial(_) => Duration::from_millis(300),
             BusSpec::InProc => Duration::from_millis(60),
         };
-        let hb = heartbeat_for(self.bus);
         let timing = Timing {
             alive: Duration::from_millis(hb.timeout_ms as u64),
             ..Timing::new(reply, silence)

@@ -114,7 +114,7 @@ impl ReceiveTimeout for SerialSlcan {
                     for (i, &b) in bytes.iter().enumerate() {
                         if b == b'\r' || b == b'\n' {
                             let line = &bytes[start..i];
-                            if !(is_ack(line) && self.dec_is_empty()) {
+                            if !(is_ack(line) && self.dec.is_empty()) {
                                 self.feed(&bytes[start..=i]);
                             }
                             start = i + 1;
@@ -128,13 +128,6 @@ impl ReceiveTimeout for SerialSlcan {
                 Err(e) => return Err(io(e)),
             }
         }
-    }
-}
-
-impl SerialSlcan {
-    /// True when no partial line is waiting in the decoder.
-    fn dec_is_empty(&self) -> bool {
-        self.dec.is_empty()
     }
 }
 
