@@ -158,6 +158,229 @@ impl<const N: usize> RankScratch<N> {
     }
 }
 
+/// Buckets of [`Ranking::select_bucketed`]'s histogram (bucket numbers fit a `u8`).
+const BUCKETS: usize = 256;
+/// Neurons [`Ranking::select_bucketed`] keeps at once (on the stack: 7 bytes each).
+const CAPACITY: usize = 256;
+
+/// `s < edge`; false for NaN (a NaN distance is never kept).
+#[inline(always)]
+fn below(s: f32, edge: f32) -> bool {
+    s < edge
+}
+
+/// The next larger f32 of a non-negative finite value.
+#[inline(always)]
+fn next_up(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() + 1)
+}
+
+/// A value at or above the `r`-th smallest (1-based) of the squared distances `bits`
+/// (f32 bits, all at most `max`), near it: a 64-bucket histogram over `[0, max]`, then
+/// over the bucket that holds it, at most three times. Speeds the scan up; the result
+/// does not depend on it.
+fn sample_quantile(bits: &[u32], r: usize, max: f32) -> f32 {
+    let mut range = max;
+    for level in 0..3 {
+        let s = 64.0 / range;
+        let mut h = [0u16; 65];
+        for &x in bits {
+            let b = ((f32::from_bits(x) * s) as usize).min(64);
+            h[b] += 1;
+        }
+        let mut cum = 0;
+        let mut j = 0;
+        while j < 64 {
+            cum += h[j] as usize;
+            if cum >= r {
+                break;
+            }
+            j += 1;
+        }
+        if j >= 64 {
+            return range;
+        }
+        let t = (j + 1) as f32 / s;
+        if j >= 8 || level == 2 || !below(0.0, t) {
+            return t;
+        }
+        range = t;
+    }
+    range
+}
+
+/// The neurons kept by [`Ranking::select_bucketed`], its histogram and its cut.
+struct Collector {
+    /// [`dist_key`] of each kept neuron's squared distance.
+    key: [u32; CAPACITY],
+    index: [u16; CAPACITY],
+    bucket: [u8; CAPACITY],
+    kept: usize,
+    /// Kept neurons per bucket.
+    hist: [u16; BUCKETS],
+    /// The cut: neurons of bucket `cut` and above are not kept.
+    cut: usize,
+    /// Kept neurons below the cut.
+    live: usize,
+    scale: f32,
+    /// The least squared distance of bucket `cut`: a neuron is kept only when below it.
+    edge: f32,
+}
+
+impl Collector {
+    fn new() -> Self {
+        Collector {
+            key: [0; CAPACITY],
+            index: [0; CAPACITY],
+            bucket: [0; CAPACITY],
+            kept: 0,
+            hist: [0; BUCKETS],
+            cut: BUCKETS,
+            live: 0,
+            scale: 1.0,
+            edge: 0.0,
+        }
+    }
+
+    fn set_scale(&mut self, scale: f32) {
+        self.scale = scale;
+        self.edge = self.edge_of(self.cut);
+    }
+
+    /// The least non-negative f32 `s` with `(s * scale) as u32 >= c` (`c` >= 1): a value
+    /// is in bucket `c` or above exactly when it is not below this.
+    fn edge_of(&self, c: usize) -> f32 {
+        let cf = c as f32;
+        let mut s = cf / self.scale;
+        while s * self.scale < cf {
+            s = next_up(s);
+        }
+        while s > 0.0 {
+            let below = f32::from_bits(s.to_bits() - 1);
+            if below * self.scale >= cf {
+                s = below;
+            } else {
+                break;
+            }
+        }
+        s
+    }
+
+    /// Keeps neuron `k` at squared distance `s` (below `edge`, so below the cut) and lowers
+    /// the cut while the buckets below its last one hold `K` kept neurons. False when the
+    /// buffer is full of live neurons.
+    #[inline(always)]
+    fn push<const K: usize>(&mut self, s: f32, k: usize) -> bool {
+        if self.kept == CAPACITY && !self.compact() {
+            return false;
+        }
+        let b = ((s * self.scale) as usize).min(BUCKETS - 1);
+        let n = self.kept;
+        self.key[n] = dist_key(s);
+        self.index[n] = k as u16;
+        self.bucket[n] = b as u8;
+        self.kept = n + 1;
+        self.hist[b] += 1;
+        self.live += 1;
+        if self.live >= K && self.live - self.hist[self.cut - 1] as usize >= K {
+            while self.live - self.hist[self.cut - 1] as usize >= K {
+                self.cut -= 1;
+                self.live -= self.hist[self.cut] as usize;
+            }
+            self.edge = self.edge_of(self.cut);
+        }
+        true
+    }
+
+    /// Drops the kept neurons at or above the cut; false when none was.
+    #[cold]
+    fn compact(&mut self) -> bool {
+        let mut n = 0;
+        for j in 0..self.kept {
+            if (self.bucket[j] as usize) < self.cut {
+                self.key[n] = self.key[j];
+                self.index[n] = self.index[j];
+                self.bucket[n] = self.bucket[j];
+                n += 1;
+            }
+        }
+        let freed = n < self.kept;
+        self.kept = n;
+        freed
+    }
+
+    /// The `K` closest kept neurons, sorted by (squared distance, index), into `dist` and
+    /// `index` (at least `K` live).
+    fn emit<const K: usize>(&mut self, dist: &mut [u32; K], index: &mut [u16; K]) {
+        let cut = self.cut;
+        // bucket counts to start positions
+        let mut acc = 0u16;
+        for h in self.hist[..cut].iter_mut() {
+            let n = *h;
+            *h = acc;
+            acc += n;
+        }
+        let last = cut - 1;
+        let last_start = self.hist[last] as usize;
+        // counting sort by bucket, index order within a bucket; the last bucket's neurons
+        // beyond position K wait
+        for j in 0..self.kept {
+            let b = self.bucket[j] as usize;
+            if b >= cut {
+                continue;
+            }
+            let p = self.hist[b] as usize;
+            self.hist[b] += 1;
+            if p < K {
+                dist[p] = self.key[j];
+                index[p] = self.index[j];
+            }
+        }
+        // insertion sort: stable, and only within buckets (the buckets are in order)
+        for i in 1..K {
+            let x = dist[i];
+            if dist[i - 1] <= x {
+                continue;
+            }
+            let xi = index[i];
+            let mut p = i;
+            while p > 0 && dist[p - 1] > x {
+                dist[p] = dist[p - 1];
+                index[p] = index[p - 1];
+                p -= 1;
+            }
+            dist[p] = x;
+            index[p] = xi;
+        }
+        // the last bucket's surplus, in index order (after every neuron of that bucket
+        // already placed): each enters when strictly closer than the K-th
+        if self.live > K {
+            let mut skip = K - last_start;
+            for j in 0..self.kept {
+                if self.bucket[j] as usize != last {
+                    continue;
+                }
+                if skip > 0 {
+                    skip -= 1;
+                    continue;
+                }
+                let x = self.key[j];
+                if x >= dist[K - 1] {
+                    continue;
+                }
+                let mut p = K - 1;
+                while p > 0 && dist[p - 1] > x {
+                    dist[p] = dist[p - 1];
+                    index[p] = index[p - 1];
+                    p -= 1;
+                }
+                dist[p] = x;
+                index[p] = self.index[j];
+            }
+        }
+    }
+}
+
 impl<const K: usize> Ranking<K> {
     /// An empty ranking.
     pub const fn new() -> Self {
@@ -215,102 +438,112 @@ impl<const K: usize> Ranking<K> {
         }
     }
 
-    /// [`RankMode::PartialSelect`]: a max-heap of the `K` best, then sorted in place.
+    /// [`RankMode::PartialSelect`]: the bucketed scan, or (when it cannot decide) the heap.
     /// Not inlined: inlined into a caller that holds the ranking deep inside a larger
-    /// struct, the heap's addresses took extra instructions on every access (measured on
+    /// struct, the ranking's addresses took extra instructions on every access (measured on
     /// the Cortex-M4F: +36k instructions per ranking in `Controller::begin`).
     #[inline(never)]
     fn select<const N: usize, const D: usize>(&mut self, w: &[[f32; D]; N], u: &[f32; D]) {
-        if !self.select_sampled(w, u) {
+        if !self.select_bucketed(w, u) {
             self.select_plain(w, u);
         }
     }
 
-    /// The heap scan with a threshold from a sample: the `r`-th smallest pair among the
-    /// first `K` neurons, `r` chosen so that about `1.75 K` of all `N` pairs are expected at
-    /// or below it. Pairs above it are skipped (and their sums cut short) from the start,
-    /// instead of only once the heap has tightened, and the heap is only built from pairs
-    /// below it. When at least `K` pairs are at or below the threshold, the `K` best of all
-    /// are among them and the result is exactly the plain scan's; when fewer are (an
-    /// unlucky sample: 17 calls in 20,000 on uniform random stage-1 weights, host test),
-    /// returns false and the caller runs the plain scan (about twice the cost). Leaves the
-    /// sorted pairs.
-    fn select_sampled<const N: usize, const D: usize>(
+    /// The scan with a histogram of the squared distances instead of a heap.
+    ///
+    /// Buckets are linear in the squared distance: `b(s) = (s * scale) as u32`, which never
+    /// decreases as `s` grows (a rounded product and a truncation are both monotonic), so a
+    /// neuron in a lower bucket is strictly closer than one in a higher bucket. `scale` puts
+    /// [`BUCKETS`] buckets below a threshold from a sample (the first `K` neurons: the
+    /// `r`-th smallest of their distances, `r` chosen so that about `2 K` of all `N` are
+    /// expected below it). The scan keeps every neuron whose bucket is below the cut `c`;
+    /// `c` starts at [`BUCKETS`] and comes down whenever the buckets below `c - 1` alone hold
+    /// `K` kept neurons, so a neuron of bucket `c` or above could not be among the `K`
+    /// closest. A neuron is skipped as soon as a partial sum of its squared distance reaches
+    /// `edge(c)`, the least value of bucket `c` (partial sums of non-negative terms never
+    /// decrease). At the end the kept neurons below the cut, at least `K`, are placed by
+    /// bucket (a counting sort, index order within a bucket) and sorted by an insertion sort
+    /// that only moves neurons within a bucket; the last bucket's surplus is merged in.
+    /// Exactly the pairs and order of [`RankMode::FullSort`].
+    ///
+    /// Returns false, leaving the ranking to the heap scan, when it cannot decide: fewer
+    /// than `K` neurons below the threshold (an unlucky sample), more than [`CAPACITY`] kept
+    /// at once (many equal distances), no usable scale (all sample distances zero), or `K`
+    /// too large for the buffers.
+    fn select_bucketed<const N: usize, const D: usize>(
         &mut self,
         w: &[[f32; D]; N],
         u: &[f32; D],
     ) -> bool {
-        let r = (7 * K * K).div_ceil(4 * N).clamp(1, K);
-        if r >= K {
+        if 2 * K > CAPACITY {
             return false;
         }
         let (first, rest) = w.split_at(K);
-        let mut sample = [0u64; K];
-        for (k, (c, wk)) in sample.iter_mut().zip(first.iter()).enumerate() {
-            *c = key(dist2(wk, u), k);
+        let mut c = Collector::new();
+        // the sample: the first K distances, in `c.key` as f32 bits for now
+        let mut max = 0.0f32;
+        for (x, wk) in c.key.iter_mut().zip(first.iter()) {
+            let s = dist2(wk, u);
+            if s > max {
+                max = s;
+            }
+            *x = s.to_bits();
         }
-        sample.select_nth_unstable(r - 1);
-        // the r smallest pairs of the sample start the collection
-        let (dist, index) = (&mut self.dist[..], &mut self.index[..]);
-        for ((d, i), &c) in dist
-            .iter_mut()
-            .zip(index.iter_mut())
-            .zip(sample[..r].iter())
-        {
-            *d = (c >> 32) as u32;
-            *i = c as u16;
-        }
-        let mut count = r;
-        // a later neuron's index is larger than every index collected and than the
-        // threshold's: it enters when its distance key is strictly smaller
-        let mut top = (sample[r - 1] >> 32) as u32;
-        let mut worst = key_dist2(top);
-        let half = D / 2;
-        for (k, wk) in rest.iter().enumerate() {
-            let mut s = 0.0;
-            for d in 0..half {
-                let diff = u[d] - wk[d];
-                s += diff * diff;
-            }
-            if s > worst {
-                continue;
-            }
-            for d in half..D {
-                let diff = u[d] - wk[d];
-                s += diff * diff;
-            }
-            // between non-NaN values the float comparison is the key comparison; equal
-            // values and NaN go through the keys
-            if s > worst {
-                continue;
-            }
-            let c = dist_key(s);
-            if !(s < worst || c < top) {
-                continue;
-            }
-            if count < K {
-                dist[count] = c;
-                index[count] = (K + k) as u16;
-                count += 1;
-                if count == K {
-                    for i in (0..K / 2).rev() {
-                        sift_down(dist, index, K, i);
-                    }
-                    top = dist[0];
-                    worst = key_dist2(top);
-                }
-            } else {
-                dist[0] = c;
-                index[0] = (K + k) as u16;
-                sift_down(dist, index, K, 0);
-                top = dist[0];
-                worst = key_dist2(top);
-            }
-        }
-        if count < K {
+        let r = (2 * K * K).div_ceil(N).clamp(1, K);
+        let threshold = sample_quantile(&c.key[..K], r, max);
+        let scale = BUCKETS as f32 / threshold;
+        if !(scale.is_finite() && scale > 0.0) {
             return false;
         }
-        heap_sort(dist, index);
+        c.set_scale(scale);
+        for k in 0..K {
+            let s = f32::from_bits(c.key[k]);
+            if s < c.edge && !c.push::<K>(s, k) {
+                return false;
+            }
+        }
+        // the scan: the cut's edge in a local (the collector only changes it in `push`),
+        // and each neuron's number from its address (one pointer steps through the table)
+        let (q1, q2) = (D / 2, 3 * D / 4);
+        let mut edge = c.edge;
+        let base = w.as_ptr() as usize;
+        // an opaque table address: with the address of a static known, the loop indexed
+        // from it (two more instructions per neuron) instead of stepping a pointer
+        let rest = core::hint::black_box(rest);
+        for wk in rest.iter() {
+            let mut s = 0.0;
+            for d in 0..q1 {
+                let diff = u[d] - wk[d];
+                s += diff * diff;
+            }
+            // NaN fails the comparison too: it is never kept
+            if !below(s, edge) {
+                continue;
+            }
+            for d in q1..q2 {
+                let diff = u[d] - wk[d];
+                s += diff * diff;
+            }
+            if !below(s, edge) {
+                continue;
+            }
+            for d in q2..D {
+                let diff = u[d] - wk[d];
+                s += diff * diff;
+            }
+            if !below(s, edge) {
+                continue;
+            }
+            let k = (wk.as_ptr() as usize - base) / core::mem::size_of::<[f32; D]>();
+            if !c.push::<K>(s, k) {
+                return false;
+            }
+            edge = c.edge;
+        }
+        if c.live < K {
+            return false;
+        }
+        c.emit(&mut self.dist, &mut self.index);
         true
     }
 
@@ -477,6 +710,68 @@ mod tests {
                 prop_assert_eq!(part.dist[r], full.dist[r]);
             }
         }
+    }
+
+    /// The bucketed scan on its own (no heap fallback): when it decides, exactly the full
+    /// sort; on random stage-1 tables it decides nearly always. Snapped coordinates make
+    /// many equal distances (equal keys within a bucket, a last bucket with a surplus).
+    #[test]
+    fn bucketed_scan_matches_full_sort_and_decides() {
+        use rand_core::SeedableRng;
+        for snap in [false, true] {
+            let mut decided = 0;
+            for seed in 0..200u64 {
+                let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+                let mut w = [[0.0f32; 8]; 1000];
+                for wk in w.iter_mut() {
+                    for x in wk.iter_mut() {
+                        *x = crate::net::uniform(&mut rng, 0.0, 640.0);
+                        if snap {
+                            *x = (*x / 128.0).round() * 128.0;
+                        }
+                    }
+                }
+                let u: [f32; 8] =
+                    core::array::from_fn(|_| crate::net::uniform(&mut rng, 100.0, 540.0));
+                let mut full = Ranking::<1000>::new();
+                full.full_sort(&w, &u);
+                let mut part = Ranking::<128>::new();
+                if part.select_bucketed(&w, &u) {
+                    decided += 1;
+                    assert_eq!(
+                        &part.index[..],
+                        &full.index[..128],
+                        "seed {seed} snap {snap}"
+                    );
+                    assert_eq!(&part.dist[..], &full.dist[..128], "seed {seed} snap {snap}");
+                }
+            }
+            assert!(decided >= 190, "decided {decided} of 200 (snap {snap})");
+        }
+    }
+
+    /// Equal distances across the last bucket: a surplus of equal keys, ordered by index.
+    #[test]
+    fn bucketed_scan_with_a_surplus_of_equal_distances() {
+        // 300 neurons on 3 shells around u: 30 close, 200 at one distance, 70 far
+        let mut w = [[0.0f32; 2]; 300];
+        for (k, wk) in w.iter_mut().enumerate() {
+            let r = if k % 10 == 3 {
+                1.0
+            } else if k % 10 < 8 {
+                5.0
+            } else {
+                9.0
+            };
+            *wk = if k % 2 == 0 { [r, 0.0] } else { [0.0, -r] };
+        }
+        let u = [0.0, 0.0];
+        let mut full = Ranking::<300>::new();
+        full.full_sort(&w, &u);
+        let mut part = Ranking::<40>::new();
+        part.compute(&w, &u, &mut RankScratch::new(), RankMode::PartialSelect);
+        assert_eq!(&part.indices()[..], &full.indices()[..40]);
+        assert_eq!(&part.dist[..], &full.dist[..40]);
     }
 
     /// Neurons ordered by distance, closest first (the sample of the first `K` gives too

@@ -39,11 +39,11 @@ impl<const K: usize> Falloff<K> {
         Falloff { value: [0.0; K] }
     }
 
-    /// `exp(-r / range)` for `r = 0..K`.
+    /// `exp(-r / range)` for `r = 0..K` (`libm::expf`, bit for bit; see [`exp_nonpositive`]).
     pub fn compute(range: f32) -> Self {
         let mut value = [0.0; K];
         for (r, v) in value.iter_mut().enumerate() {
-            *v = libm::expf(-(r as f32) / range);
+            *v = exp_nonpositive(-(r as f32) / range);
         }
         Falloff { value }
     }
@@ -51,6 +51,57 @@ impl<const K: usize> Falloff<K> {
     /// Sum of the first `n` values (`n` is capped at `K`).
     pub fn sum(&self, n: usize) -> f32 {
         self.value[..n.min(K)].iter().sum()
+    }
+}
+
+/// `libm::expf(x)`, bit for bit, with its common case inlined: for `-64 < x <= 0` the same
+/// operations as libm's `expf` (FreeBSD's `e_expf.c`: argument reduction by `k ln 2`, the
+/// rational approximation, then `* 2^k`), without the call, the checks for NaN, overflow
+/// and underflow, or `scalbnf` (for `k >= -93` the result is normal and `y * 2^k` exact, as
+/// `scalbnf` gives it). Anything else goes to `libm::expf`. The neighbourhood table is
+/// recomputed at every learning step while sigma shrinks: 128 of these per step.
+#[inline(always)]
+pub(crate) fn exp_nonpositive(x: f32) -> f32 {
+    const LN2_HI: f32 = f32::from_bits(0x3f31_7200);
+    const LN2_LO: f32 = f32::from_bits(0x35bf_be8e);
+    const INV_LN2: f32 = f32::from_bits(0x3fb8_aa3b);
+    const P1: f32 = f32::from_bits(0x3e2a_aa8f);
+    const P2: f32 = f32::from_bits(0xbb35_5215);
+    let bits = x.to_bits();
+    let hx = bits & 0x7fff_ffff;
+    // positive, |x| >= 64, NaN: libm
+    if bits >> 31 == 0 || hx >= 0x4280_0000 {
+        return libm::expf(x);
+    }
+    let (k, hi, lo, xr);
+    if hx > 0x3eb1_7218 {
+        // |x| > 0.5 ln 2
+        k = if hx > 0x3f85_1592 {
+            // |x| > 1.5 ln 2 (x negative: the rounding offset is -0.5)
+            (INV_LN2 * x + -0.5) as i32
+        } else {
+            -1
+        };
+        let kf = k as f32;
+        hi = x - kf * LN2_HI;
+        lo = kf * LN2_LO;
+        xr = hi - lo;
+    } else if hx > 0x3900_0000 {
+        // |x| > 2^-14
+        k = 0;
+        hi = x;
+        lo = 0.0;
+        xr = x;
+    } else {
+        return 1.0 + x;
+    }
+    let xx = xr * xr;
+    let c = xr - xx * (P1 + xx * P2);
+    let y = 1.0 + (xr * c / (2.0 - c) - lo + hi);
+    if k == 0 {
+        y
+    } else {
+        y * f32::from_bits(((0x7f + k) as u32) << 23)
     }
 }
 
@@ -87,6 +138,64 @@ pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: us
         let local = net.local_output(k as usize, u);
         for m in 0..M {
             out[m] += al * local[m];
+        }
+    }
+    let norm = 1.0 / alpha.sum(K);
+    out.iter_mut().for_each(|o| *o *= norm);
+    out
+}
+
+/// The start of a learning trial in one pass over the ranked neurons: the weight update
+/// [`update_weights`] towards `u`, then (supervised, `pressures = Some((coeff, p_ref))`)
+/// the pressure update [`update_pressures`] at `x = u`, then [`coarse_output`] at `u`.
+/// Each neuron's `A_k (u - w_k)` is computed once, from the updated weight, for both the
+/// pressure update and the average (the same products: neither changes `A_k` or `w_k`).
+/// Every value is computed by the same operations in the same order as the three functions
+/// one after the other (each neuron's updates touch only its own entries; the average is
+/// summed in rank order), so the tables and the output are bit for bit theirs.
+#[inline(never)]
+pub fn learn_and_coarse_output<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    w_coeff: f32,
+    pressures: Option<(f32, &[f32; M])>,
+    alpha: &Falloff<K>,
+    u: &[f32; D],
+) -> [f32; M] {
+    let mut out = [0.0; M];
+    let ranked = ranking
+        .indices()
+        .iter()
+        .zip(gamma.value.iter())
+        .zip(alpha.value.iter());
+    for ((&k, &f), &al) in ranked {
+        let k = k as usize;
+        let g = w_coeff * f;
+        let w = &mut net.w[k];
+        for d in 0..D {
+            w[d] += g * (u[d] - w[d]);
+        }
+        let diff: [f32; D] = core::array::from_fn(|d| u[d] - w[d]);
+        let a = &net.a[k];
+        let mut ad = [0.0; M];
+        for (x, row) in ad.iter_mut().zip(a.iter()) {
+            let mut acc = 0.0;
+            for d in 0..D {
+                acc += row[d] * diff[d];
+            }
+            *x = acc;
+        }
+        let p = &mut net.p[k];
+        if let Some((p_coeff, p_ref)) = pressures {
+            let gp = p_coeff * f;
+            for m in 0..M {
+                let local = p[m] + ad[m];
+                p[m] += gp * (p_ref[m] - local);
+            }
+        }
+        for m in 0..M {
+            out[m] += al * (p[m] + ad[m]);
         }
     }
     let norm = 1.0 / alpha.sum(K);
@@ -245,6 +354,75 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
     Ok(())
 }
 
+/// [`update_jacobians`] followed by [`mean_jacobian`] of the updated tables, in one pass:
+/// row by row, each neuron's row is updated and, for the ranks averaged, added to the
+/// average while it is in registers. Every value is computed by the same operations in the
+/// same order as the two functions one after the other (rows are updated independently;
+/// each entry of the average is summed over the ranks in rank order), so the tables and
+/// the average are bit for bit theirs.
+///
+/// Returns [`Error::ZeroLengthDv`] without touching the tables (and without an average)
+/// when `||dv|| < min_dv`.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+pub fn update_jacobians_and_mean<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    coeff: f32,
+    dp: &[f32; M],
+    dv: &[f32; D],
+    min_dv: f32,
+    alpha: &Falloff<K>,
+    fine_ranks: usize,
+) -> Result<[[f32; D]; M]> {
+    let norm2: f32 = dv.iter().map(|x| x * x).sum();
+    let long_enough = norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite();
+    if !long_enough {
+        return Err(Error::ZeroLengthDv);
+    }
+    let inv = 1.0 / norm2;
+    let n = (fine_ranks + 1).min(K);
+    let ks = ranking.indices();
+    let (ks_avg, ks_rest) = ks.split_at(n);
+    let (g_avg, g_rest) = gamma.value.split_at(n);
+    let als = &alpha.value[..n];
+    let mut a_bar = [[0.0; D]; M];
+    for (m, out) in a_bar.iter_mut().enumerate() {
+        let dpm = dp[m];
+        let mut acc = [0.0; D];
+        for ((&k, &f), &al) in ks_avg.iter().zip(g_avg.iter()).zip(als.iter()) {
+            let row = &mut net.a[k as usize][m];
+            let g = coeff * f;
+            let mut adv = 0.0;
+            for d in 0..D {
+                adv += row[d] * dv[d];
+            }
+            let s = g * (dpm - adv) * inv;
+            for d in 0..D {
+                row[d] += s * dv[d];
+                acc[d] += al * row[d];
+            }
+        }
+        for (&k, &f) in ks_rest.iter().zip(g_rest.iter()) {
+            let row = &mut net.a[k as usize][m];
+            let g = coeff * f;
+            let mut adv = 0.0;
+            for d in 0..D {
+                adv += row[d] * dv[d];
+            }
+            let s = g * (dpm - adv) * inv;
+            for d in 0..D {
+                row[d] += s * dv[d];
+            }
+        }
+        *out = acc;
+    }
+    let norm = 1.0 / alpha.sum(n);
+    a_bar.iter_mut().flatten().for_each(|x| *x *= norm);
+    Ok(a_bar)
+}
+
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
 mod tests {
@@ -343,6 +521,118 @@ mod tests {
         let e = update_jacobians(&mut net, &r, &ones, 1.0, &[3.0], &[f32::NAN, 0.0], 1e-3);
         assert_eq!(e, Err(Error::ZeroLengthDv));
         assert!(net == before);
+    }
+
+    /// The fused update and average against the two functions one after the other, bit
+    /// for bit (stage-1 sizes, random tables; every S from 0 to past K).
+    #[test]
+    fn fused_jacobian_update_and_mean_are_the_two_steps() {
+        use rand_core::SeedableRng;
+        let cfg = crate::Config::project_default().stage1;
+        for (seed, fine_ranks) in [(1u64, 0usize), (2, 5), (3, 127), (4, 400)] {
+            let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let mut a = crate::net::Stage1Net::new();
+            a.init_random(&mut rng, &cfg.init);
+            let mut b = a.clone();
+            let u = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+            let r: Ranking<128> = ranked(&a, &u);
+            let gamma = Falloff::<128>::compute(cfg.sigma_at(3));
+            let alpha = Falloff::<128>::compute(cfg.alpha_range);
+            let (dp, dv) = (
+                [0.1, -0.2, 0.05, 0.3, -0.01],
+                [3.0, -2.0, 1.5, 0.5, -4.0, 2.0, 1.0, -1.0],
+            );
+            let coeff = cfg.j.coeff(3);
+            update_jacobians(&mut a, &r, &gamma, coeff, &dp, &dv, cfg.min_dv).unwrap();
+            let want = mean_jacobian(&a, &r, &alpha, fine_ranks);
+            let got = update_jacobians_and_mean(
+                &mut b, &r, &gamma, coeff, &dp, &dv, cfg.min_dv, &alpha, fine_ranks,
+            )
+            .unwrap();
+            assert!(a == b, "tables differ (seed {seed})");
+            for m in 0..5 {
+                for d in 0..8 {
+                    assert_eq!(got[m][d].to_bits(), want[m][d].to_bits());
+                }
+            }
+        }
+        let mut net = two_neurons();
+        let before = net.clone();
+        let r: Ranking<2> = ranked(&net, &[0.0, 0.0]);
+        let ones = Falloff { value: [1.0, 1.0] };
+        let e = update_jacobians_and_mean(
+            &mut net,
+            &r,
+            &ones,
+            1.0,
+            &[3.0],
+            &[0.0, 0.0],
+            1e-3,
+            &ones,
+            1,
+        );
+        assert_eq!(e, Err(Error::ZeroLengthDv));
+        assert!(net == before);
+    }
+
+    /// The inlined exponential against libm's, bit for bit: every rank over many ranges,
+    /// and a sweep of bit patterns across (-70, 0] and beyond.
+    #[test]
+    fn inlined_exp_is_libms() {
+        for range in [
+            5.0f32, 5.3, 10.0, 17.7, 49.99, 50.0, 1.0, 0.3, 1e-3, -2.0, 1e6,
+        ] {
+            for r in 0..1000 {
+                let x = -(r as f32) / range;
+                assert_eq!(exp_nonpositive(x).to_bits(), libm::expf(x).to_bits(), "{x}");
+            }
+        }
+        let mut b = 0u32;
+        while b < 0x7f80_0000 {
+            for x in [f32::from_bits(b), -f32::from_bits(b)] {
+                assert_eq!(exp_nonpositive(x).to_bits(), libm::expf(x).to_bits(), "{x}");
+            }
+            b += 997;
+        }
+        let sigma = crate::Config::project_default().stage1;
+        for t in 0..3000 {
+            let f = Falloff::<128>::compute(sigma.sigma_at(t));
+            for r in 0..128 {
+                let want = libm::expf(-(r as f32) / sigma.sigma_at(t));
+                assert_eq!(f.value[r].to_bits(), want.to_bits());
+            }
+        }
+    }
+
+    /// The fused start of a trial against the three functions one after the other, bit for
+    /// bit, unsupervised and supervised.
+    #[test]
+    fn fused_learning_begin_is_the_three_steps() {
+        use rand_core::SeedableRng;
+        let cfg = crate::Config::project_default().stage1;
+        for (seed, supervised) in [(5u64, false), (6, true), (7, true)] {
+            let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let mut a = crate::net::Stage1Net::new();
+            a.init_random(&mut rng, &cfg.init);
+            let mut b = a.clone();
+            let u = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+            let p_ref = [0.1, -0.2, 0.05, 0.3, -0.01];
+            let r: Ranking<128> = ranked(&a, &u);
+            let gamma = Falloff::<128>::compute(cfg.sigma_at(2));
+            let alpha = Falloff::<128>::compute(cfg.alpha_range);
+            let (wc, pc) = (cfg.w.coeff(2), cfg.p.coeff(2));
+            update_weights(&mut a, &r, &gamma, wc, &u);
+            if supervised {
+                update_pressures(&mut a, &r, &gamma, pc, &p_ref, &u);
+            }
+            let want = coarse_output(&a, &r, &alpha, &u);
+            let pressures = supervised.then_some((pc, &p_ref));
+            let got = learn_and_coarse_output(&mut b, &r, &gamma, wc, pressures, &alpha, &u);
+            assert!(a == b, "tables differ (seed {seed})");
+            for m in 0..5 {
+                assert_eq!(got[m].to_bits(), want[m].to_bits());
+            }
+        }
     }
 
     #[test]

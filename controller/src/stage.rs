@@ -298,36 +298,28 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         } else {
             self.cfg.mature_tolerance
         };
-        if learn {
+        let p_bar = if learn {
             self.t = t;
             if self.cfg.sigma_start != self.cfg.sigma {
                 self.neighbour = Falloff::compute(self.cfg.sigma_at(t));
             }
-            // substep 3 (8.9 / 8.17 / 8.25)
-            rules::update_weights(
+            // substep 3 (8.9 / 8.17 / 8.25), supervised substep 5 (8.18), and substep 4
+            // (8.11 / 8.19 / 8.24, normalised) in one pass
+            let pressures = p_target.map(|p| (self.cfg.p.coeff(t), p));
+            rules::learn_and_coarse_output(
                 &mut self.net,
                 &self.ranking,
                 &self.neighbour,
                 self.cfg.w.coeff(t),
+                pressures,
+                &self.alpha,
                 target,
-            );
-            if let Some(p) = p_target {
-                // supervised substep 5 (8.18)
-                rules::update_pressures(
-                    &mut self.net,
-                    &self.ranking,
-                    &self.neighbour,
-                    self.cfg.p.coeff(t),
-                    p,
-                    target,
-                );
-            }
-        }
-        // substep 4 (8.11 / 8.19 / 8.24), normalised
-        let p_bar = rules::clamp(
-            &rules::coarse_output(&self.net, &self.ranking, &self.alpha, target),
-            self.cfg.pressure_limit,
-        );
+            )
+        } else {
+            // substep 4 (8.11 / 8.19 / 8.24), normalised
+            rules::coarse_output(&self.net, &self.ranking, &self.alpha, target)
+        };
+        let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {
             target: *target,
             p_target: p_target.copied(),
@@ -364,6 +356,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let d = distance(v, &target);
         let tr = &mut self.trial;
         let t = tr.outcome.t;
+        // the averaged Jacobian of the next fine move, when the Jacobian update made it
+        let mut a_bar = None;
         match self.phase {
             Phase::AwaitCoarse => {
                 tr.outcome.coarse_error = d;
@@ -397,6 +391,22 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 if n < TRACE_LEN {
                     tr.outcome.trace[n] = d;
                 }
+                // whether the trial ends here (and how), decided before the update: when
+                // another fine move follows, the update also gives its averaged Jacobian
+                let fine = tr.outcome.fine_moves;
+                let over = d > tr.outcome.tolerance;
+                let finish = if let Some(n) = tr.exact {
+                    (fine >= n).then_some(over)
+                } else {
+                    let enough = fine >= self.cfg.min_fine_moves_learning || !tr.learn;
+                    if !over && enough {
+                        Some(false)
+                    } else if fine >= self.cfg.max_fine_moves || fine as usize >= TRACE_LEN - 1 {
+                        Some(over)
+                    } else {
+                        None
+                    }
+                };
                 if tr.learn {
                     // substep 9 (8.15), or supervised substep 12 (8.21)
                     let (dp, dv) = match tr.p_target {
@@ -404,34 +414,36 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                         None => (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev)),
                     };
                     let coeff = self.cfg.j.coeff(t);
-                    if rules::update_jacobians(
-                        &mut self.net,
-                        &self.ranking,
-                        &self.neighbour,
-                        coeff,
-                        &dp,
-                        &dv,
-                        self.cfg.min_dv,
-                    )
-                    .is_err()
-                    {
+                    let updated = if finish.is_none() {
+                        rules::update_jacobians_and_mean(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            coeff,
+                            &dp,
+                            &dv,
+                            self.cfg.min_dv,
+                            &self.alpha,
+                            self.cfg.fine_ranks as usize,
+                        )
+                        .map(|a| a_bar = Some(a))
+                    } else {
+                        rules::update_jacobians(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            coeff,
+                            &dp,
+                            &dv,
+                            self.cfg.min_dv,
+                        )
+                    };
+                    if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
                 }
-                let fine = tr.outcome.fine_moves;
-                let over = d > tr.outcome.tolerance;
-                if let Some(n) = tr.exact {
-                    if fine >= n {
-                        return Ok(self.finish(d, over));
-                    }
-                } else {
-                    let enough = fine >= self.cfg.min_fine_moves_learning || !tr.learn;
-                    if !over && enough {
-                        return Ok(self.finish(d, false));
-                    }
-                    if fine >= self.cfg.max_fine_moves || fine as usize >= TRACE_LEN - 1 {
-                        return Ok(self.finish(d, over));
-                    }
+                if let Some(over) = finish {
+                    return Ok(self.finish(d, over));
                 }
             }
             Phase::Idle => return Err(Error::UnexpectedObservation),
@@ -439,12 +451,15 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         // substep 7 (8.14 / 8.20 / 8.29): the next fine move from the last applied pressure
         // and the last observed position.
         let tr = &mut self.trial;
-        let a_bar = rules::mean_jacobian(
-            &self.net,
-            &self.ranking,
-            &self.alpha,
-            self.cfg.fine_ranks as usize,
-        );
+        let a_bar = match a_bar {
+            Some(a) => a,
+            None => rules::mean_jacobian(
+                &self.net,
+                &self.ranking,
+                &self.alpha,
+                self.cfg.fine_ranks as usize,
+            ),
+        };
         let p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, self.cfg.pressure_limit);
         tr.p_prev = tr.p_last;
         tr.v_prev = *v;
