@@ -6,10 +6,12 @@ use core::cmp::Ordering;
 /// How the ranking is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RankMode {
-    /// Keep the `K` nearest in a bounded max-heap while scanning (a neuron is rejected as
-    /// soon as its partial squared distance exceeds the current `K`-th best), then sort
-    /// those `K` only. Gives exactly the first `K` ranks of [`RankMode::FullSort`] (ties
-    /// broken by index in both), at a fraction of the cost, with no `N`-sized scratch.
+    /// Keep the neurons below a cut in a histogram of the squared distances while scanning
+    /// (the cut comes down as closer neurons come in; a neuron is rejected as soon as its
+    /// partial squared distance reaches the cut), then sort the `K` closest only (a heap
+    /// scan when the histogram cannot decide). Gives exactly the first `K` ranks of
+    /// [`RankMode::FullSort`] (ties broken by index in both), at a fraction of the cost,
+    /// with no `N`-sized scratch.
     /// (The first variant, so that a zeroed controller uses it: see
     /// `Controller::new_zeroed`.)
     PartialSelect,
@@ -137,11 +139,13 @@ fn heap_sort(dist: &mut [u32], index: &mut [u16]) {
     }
 }
 
-/// Scratch space for ranking `N` neurons. Empty: [`RankMode::PartialSelect`] works in the
-/// [`Ranking`] itself and [`RankMode::FullSort`] (the host reference) on the stack. Kept so
-/// that callers need not change.
+/// Scratch space for ranking `N` neurons: the buffers of [`RankMode::PartialSelect`]'s
+/// bucketed scan (1,792 bytes, whatever `N`), kept with the ranking's owner rather than on
+/// the stack, where zeroing them at every call cost about 1,500 instructions on the
+/// Cortex-M4F. [`RankMode::FullSort`] (the host reference) sorts on the stack.
 #[derive(Debug, Clone)]
 pub struct RankScratch<const N: usize> {
+    buf: Buffers,
     _n: [(); N],
 }
 
@@ -154,12 +158,15 @@ impl<const N: usize> Default for RankScratch<N> {
 impl<const N: usize> RankScratch<N> {
     /// Zeroed scratch.
     pub const fn new() -> Self {
-        RankScratch { _n: [(); N] }
+        RankScratch {
+            buf: Buffers::new(),
+            _n: [(); N],
+        }
     }
 }
 
 /// Buckets of [`Ranking::select_bucketed`]'s histogram (bucket numbers fit a `u8`).
-const BUCKETS: usize = 256;
+const BUCKETS: usize = 128;
 /// Neurons [`Ranking::select_bucketed`] keeps at once (on the stack: 7 bytes each).
 const CAPACITY: usize = 256;
 
@@ -169,16 +176,63 @@ fn below(s: f32, edge: f32) -> bool {
     s < edge
 }
 
+/// The least non-negative f32 `s` with `(s * scale) as u32 >= c` (`c` >= 1): a value is in
+/// bucket `c` or above exactly when it is not below this.
+fn edge_of(c: usize, scale: f32) -> f32 {
+    let cf = c as f32;
+    let mut s = cf / scale;
+    while s * scale < cf {
+        s = next_up(s);
+    }
+    while s > 0.0 {
+        let below = f32::from_bits(s.to_bits() - 1);
+        if below * scale >= cf {
+            s = below;
+        } else {
+            break;
+        }
+    }
+    s
+}
+
+/// The terms `q1..D` of a squared distance added to the partial sum `s` of the first `q1`
+/// (in `d` order), tested against `edge` after `q2` and after all; `None` once not below.
+#[inline(always)]
+fn rest_of_sum<const D: usize>(
+    wk: &[f32; D],
+    u: &[f32; D],
+    mut s: f32,
+    q1: usize,
+    q2: usize,
+    edge: f32,
+) -> Option<f32> {
+    for d in q1..q2 {
+        let diff = u[d] - wk[d];
+        s += diff * diff;
+    }
+    if !below(s, edge) {
+        return None;
+    }
+    for d in q2..D {
+        let diff = u[d] - wk[d];
+        s += diff * diff;
+    }
+    if !below(s, edge) {
+        return None;
+    }
+    Some(s)
+}
+
 /// The next larger f32 of a non-negative finite value.
 #[inline(always)]
 fn next_up(x: f32) -> f32 {
     f32::from_bits(x.to_bits() + 1)
 }
 
-/// A value at or above the `r`-th smallest (1-based) of the squared distances `bits`
-/// (f32 bits, all at most `max`), near it: a 64-bucket histogram over `[0, max]`, then
-/// over the bucket that holds it, at most three times. Speeds the scan up; the result
-/// does not depend on it.
+/// A value near the `r`-th smallest (1-based) of the squared distances `bits` (f32 bits),
+/// at or above it when that is at most `max`: a 64-bucket histogram over `[0, max]` (the
+/// values above `max` in the last bucket), then over the bucket that holds it, at most
+/// three times. Speeds the scan up; the result does not depend on it.
 fn sample_quantile(bits: &[u32], r: usize, max: f32) -> f32 {
     let mut range = max;
     for level in 0..3 {
@@ -209,15 +263,22 @@ fn sample_quantile(bits: &[u32], r: usize, max: f32) -> f32 {
     range
 }
 
-/// The neurons kept by [`Ranking::select_bucketed`], its histogram and its cut.
-struct Collector {
+/// The neurons kept by [`Ranking::select_bucketed`] and its histogram (in [`RankScratch`]).
+#[derive(Debug, Clone)]
+struct Buffers {
     /// [`dist_key`] of each kept neuron's squared distance.
     key: [u32; CAPACITY],
     index: [u16; CAPACITY],
     bucket: [u8; CAPACITY],
-    kept: usize,
     /// Kept neurons per bucket.
     hist: [u16; BUCKETS],
+}
+
+/// [`Ranking::select_bucketed`]'s state: the buffers and the scalars (kept apart, so that
+/// the scalars can live in registers through the scan).
+struct Collector<'a> {
+    buf: &'a mut Buffers,
+    kept: usize,
     /// The cut: neurons of bucket `cut` and above are not kept.
     cut: usize,
     /// Kept neurons below the cut.
@@ -227,14 +288,22 @@ struct Collector {
     edge: f32,
 }
 
-impl Collector {
-    fn new() -> Self {
-        Collector {
+impl Buffers {
+    const fn new() -> Self {
+        Buffers {
             key: [0; CAPACITY],
             index: [0; CAPACITY],
             bucket: [0; CAPACITY],
-            kept: 0,
             hist: [0; BUCKETS],
+        }
+    }
+}
+
+impl<'a> Collector<'a> {
+    fn new(buf: &'a mut Buffers) -> Self {
+        Collector {
+            buf,
+            kept: 0,
             cut: BUCKETS,
             live: 0,
             scale: 1.0,
@@ -244,26 +313,7 @@ impl Collector {
 
     fn set_scale(&mut self, scale: f32) {
         self.scale = scale;
-        self.edge = self.edge_of(self.cut);
-    }
-
-    /// The least non-negative f32 `s` with `(s * scale) as u32 >= c` (`c` >= 1): a value
-    /// is in bucket `c` or above exactly when it is not below this.
-    fn edge_of(&self, c: usize) -> f32 {
-        let cf = c as f32;
-        let mut s = cf / self.scale;
-        while s * self.scale < cf {
-            s = next_up(s);
-        }
-        while s > 0.0 {
-            let below = f32::from_bits(s.to_bits() - 1);
-            if below * self.scale >= cf {
-                s = below;
-            } else {
-                break;
-            }
-        }
-        s
+        self.edge = edge_of(self.cut, scale);
     }
 
     /// Keeps neuron `k` at squared distance `s` (below `edge`, so below the cut) and lowers
@@ -271,48 +321,58 @@ impl Collector {
     /// buffer is full of live neurons.
     #[inline(always)]
     fn push<const K: usize>(&mut self, s: f32, k: usize) -> bool {
-        if self.kept == CAPACITY && !self.compact() {
-            return false;
+        if self.kept == CAPACITY {
+            self.kept = self.buf.compact(self.kept, self.cut);
+            if self.kept == CAPACITY {
+                return false;
+            }
         }
         let b = ((s * self.scale) as usize).min(BUCKETS - 1);
         let n = self.kept;
-        self.key[n] = dist_key(s);
-        self.index[n] = k as u16;
-        self.bucket[n] = b as u8;
+        let buf = &mut *self.buf;
+        buf.key[n] = dist_key(s);
+        buf.index[n] = k as u16;
+        buf.bucket[n] = b as u8;
         self.kept = n + 1;
-        self.hist[b] += 1;
+        buf.hist[b] += 1;
         self.live += 1;
-        if self.live >= K && self.live - self.hist[self.cut - 1] as usize >= K {
-            while self.live - self.hist[self.cut - 1] as usize >= K {
+        if self.live >= K && self.live - buf.hist[self.cut - 1] as usize >= K {
+            while self.live - buf.hist[self.cut - 1] as usize >= K {
                 self.cut -= 1;
-                self.live -= self.hist[self.cut] as usize;
+                self.live -= buf.hist[self.cut] as usize;
             }
-            self.edge = self.edge_of(self.cut);
+            self.edge = edge_of(self.cut, self.scale);
         }
         true
     }
+}
 
-    /// Drops the kept neurons at or above the cut; false when none was.
+impl Buffers {
+    /// Drops the kept neurons at or above the cut; returns how many stay.
     #[cold]
-    fn compact(&mut self) -> bool {
+    fn compact(&mut self, kept: usize, cut: usize) -> usize {
         let mut n = 0;
-        for j in 0..self.kept {
-            if (self.bucket[j] as usize) < self.cut {
+        for j in 0..kept {
+            if (self.bucket[j] as usize) < cut {
                 self.key[n] = self.key[j];
                 self.index[n] = self.index[j];
                 self.bucket[n] = self.bucket[j];
                 n += 1;
             }
         }
-        let freed = n < self.kept;
-        self.kept = n;
-        freed
+        n
     }
 
     /// The `K` closest kept neurons, sorted by (squared distance, index), into `dist` and
     /// `index` (at least `K` live).
-    fn emit<const K: usize>(&mut self, dist: &mut [u32; K], index: &mut [u16; K]) {
-        let cut = self.cut;
+    fn emit<const K: usize>(
+        &mut self,
+        kept: usize,
+        cut: usize,
+        live: usize,
+        dist: &mut [u32; K],
+        index: &mut [u16; K],
+    ) {
         // bucket counts to start positions
         let mut acc = 0u16;
         for h in self.hist[..cut].iter_mut() {
@@ -324,16 +384,17 @@ impl Collector {
         let last_start = self.hist[last] as usize;
         // counting sort by bucket, index order within a bucket; the last bucket's neurons
         // beyond position K wait
-        for j in 0..self.kept {
-            let b = self.bucket[j] as usize;
-            if b >= cut {
-                continue;
-            }
-            let p = self.hist[b] as usize;
-            self.hist[b] += 1;
-            if p < K {
-                dist[p] = self.key[j];
-                index[p] = self.index[j];
+        let (keys, indices, buckets) =
+            (&self.key[..kept], &self.index[..kept], &self.bucket[..kept]);
+        let hist = &mut self.hist[..cut];
+        for ((&x, &i), &b) in keys.iter().zip(indices.iter()).zip(buckets.iter()) {
+            if let Some(h) = hist.get_mut(b as usize) {
+                let p = *h as usize;
+                *h += 1;
+                if p < K {
+                    dist[p] = x;
+                    index[p] = i;
+                }
             }
         }
         // insertion sort: stable, and only within buckets (the buckets are in order)
@@ -354,28 +415,31 @@ impl Collector {
         }
         // the last bucket's surplus, in index order (after every neuron of that bucket
         // already placed): each enters when strictly closer than the K-th
-        if self.live > K {
+        if live > K {
             let mut skip = K - last_start;
-            for j in 0..self.kept {
-                if self.bucket[j] as usize != last {
+            let mut surplus = live - K;
+            for ((&x, &i), &b) in keys.iter().zip(indices.iter()).zip(buckets.iter()) {
+                if b as usize != last {
                     continue;
                 }
                 if skip > 0 {
                     skip -= 1;
                     continue;
                 }
-                let x = self.key[j];
-                if x >= dist[K - 1] {
-                    continue;
+                if x < dist[K - 1] {
+                    let mut p = K - 1;
+                    while p > 0 && dist[p - 1] > x {
+                        dist[p] = dist[p - 1];
+                        index[p] = index[p - 1];
+                        p -= 1;
+                    }
+                    dist[p] = x;
+                    index[p] = i;
                 }
-                let mut p = K - 1;
-                while p > 0 && dist[p - 1] > x {
-                    dist[p] = dist[p - 1];
-                    index[p] = index[p - 1];
-                    p -= 1;
+                surplus -= 1;
+                if surplus == 0 {
+                    break;
                 }
-                dist[p] = x;
-                index[p] = self.index[j];
             }
         }
     }
@@ -397,11 +461,12 @@ impl<const K: usize> Ranking<K> {
     /// Both modes give the same result: the `K` smallest `(dist2, index)` pairs in the order
     /// of [`Candidate`] ([`f32::total_cmp`] on the squared distance, ties by index), with the
     /// squared distances summed in the same order. [`RankMode::FullSort`] sorts all `N`
-    /// (`N` keys on the stack: the host reference). [`RankMode::PartialSelect`] keeps a
-    /// max-heap of the `K` best so far and skips a neuron as soon as the partial sum of its
-    /// squared distance exceeds the current `K`-th best: the partial sums of non-negative
-    /// terms never decrease (rounding is monotonic), so such a neuron's full distance is
-    /// larger too and it could not enter. The tables are finite (inputs are checked,
+    /// (`N` keys on the stack: the host reference). [`RankMode::PartialSelect`] keeps the
+    /// neurons below a cut in a histogram of the squared distances (in `scratch`), lowers the
+    /// cut as closer neurons come in, and skips a neuron as soon as a partial sum of its
+    /// squared distance reaches the cut: the partial sums of non-negative terms never
+    /// decrease (rounding is monotonic), so such a neuron's full distance is larger too and
+    /// it could not enter (see `select_bucketed`; the heap scan when it cannot decide). The tables are finite (inputs are checked,
     /// checkpoints must be finite, the weight update is a convex step), so no NaN reaches the
     /// order.
     pub fn compute<const N: usize, const D: usize>(
@@ -412,10 +477,9 @@ impl<const K: usize> Ranking<K> {
         mode: RankMode,
     ) {
         const { assert!(K <= N && K > 0 && N <= u16::MAX as usize) };
-        let _ = scratch;
         match mode {
             RankMode::FullSort => self.full_sort(w, u),
-            RankMode::PartialSelect => self.select(w, u),
+            RankMode::PartialSelect => self.select(w, u, &mut scratch.buf),
         }
     }
 
@@ -443,8 +507,13 @@ impl<const K: usize> Ranking<K> {
     /// struct, the ranking's addresses took extra instructions on every access (measured on
     /// the Cortex-M4F: +36k instructions per ranking in `Controller::begin`).
     #[inline(never)]
-    fn select<const N: usize, const D: usize>(&mut self, w: &[[f32; D]; N], u: &[f32; D]) {
-        if !self.select_bucketed(w, u) {
+    fn select<const N: usize, const D: usize>(
+        &mut self,
+        w: &[[f32; D]; N],
+        u: &[f32; D],
+        buf: &mut Buffers,
+    ) {
+        if !self.select_bucketed(w, u, buf) {
             self.select_plain(w, u);
         }
     }
@@ -455,7 +524,7 @@ impl<const K: usize> Ranking<K> {
     /// decreases as `s` grows (a rounded product and a truncation are both monotonic), so a
     /// neuron in a lower bucket is strictly closer than one in a higher bucket. `scale` puts
     /// [`BUCKETS`] buckets below a threshold from a sample (the first `K` neurons: the
-    /// `r`-th smallest of their distances, `r` chosen so that about `2 K` of all `N` are
+    /// `r`-th smallest of their distances, `r` chosen so that about `1.75 K` of all `N` are
     /// expected below it). The scan keeps every neuron whose bucket is below the cut `c`;
     /// `c` starts at [`BUCKETS`] and comes down whenever the buckets below `c - 1` alone hold
     /// `K` kept neurons, so a neuron of bucket `c` or above could not be among the `K`
@@ -474,76 +543,100 @@ impl<const K: usize> Ranking<K> {
         &mut self,
         w: &[[f32; D]; N],
         u: &[f32; D],
+        buf: &mut Buffers,
     ) -> bool {
         if 2 * K > CAPACITY {
             return false;
         }
         let (first, rest) = w.split_at(K);
-        let mut c = Collector::new();
+        // the buffers hold the last call's neurons: only the histogram must start at zero
+        buf.hist = [0; BUCKETS];
+        let mut c = Collector::new(buf);
         // the sample: the first K distances, in `c.key` as f32 bits for now
-        let mut max = 0.0f32;
-        for (x, wk) in c.key.iter_mut().zip(first.iter()) {
+        let mut sum = 0.0f32;
+        for (x, wk) in c.buf.key.iter_mut().zip(first.iter()) {
             let s = dist2(wk, u);
-            if s > max {
-                max = s;
-            }
+            sum += s;
             *x = s.to_bits();
         }
-        let r = (2 * K * K).div_ceil(N).clamp(1, K);
-        let threshold = sample_quantile(&c.key[..K], r, max);
+        let r = (7 * K * K).div_ceil(4 * N).clamp(1, K);
+        // the r-th smallest (r about a fifth of K) lies below twice the mean in any but
+        // very skewed samples; when not, the histogram's last bucket holds it and the
+        // threshold is just tighter (the scan may then fall back to the heap)
+        let threshold = sample_quantile(&c.buf.key[..K], r, 2.0 * sum / K as f32);
         let scale = BUCKETS as f32 / threshold;
         if !(scale.is_finite() && scale > 0.0) {
             return false;
         }
         c.set_scale(scale);
         for k in 0..K {
-            let s = f32::from_bits(c.key[k]);
+            let s = f32::from_bits(c.buf.key[k]);
             if s < c.edge && !c.push::<K>(s, k) {
                 return false;
             }
         }
         // the scan: the cut's edge in a local (the collector only changes it in `push`),
-        // and each neuron's number from its address (one pointer steps through the table)
-        let (q1, q2) = (D / 2, 3 * D / 4);
+        // and each neuron's number from its address (one pointer steps through the table).
+        // The partial sums are tested after 5, 7 and 8 of 8 terms (measured on the
+        // Cortex-M4F against 4/6/8, 5/6/8 and 6/7/8: fewest instructions).
+        let (q1, q2) = (5 * D / 8, 7 * D / 8);
         let mut edge = c.edge;
         let base = w.as_ptr() as usize;
         // an opaque table address: with the address of a static known, the loop indexed
         // from it (two more instructions per neuron) instead of stepping a pointer
         let rest = core::hint::black_box(rest);
-        for wk in rest.iter() {
+        let number =
+            |wk: &[f32; D]| (wk.as_ptr() as usize - base) / core::mem::size_of::<[f32; D]>();
+        // two neurons per step: their first terms together (the loop's own instructions
+        // once per pair)
+        let mut pairs = rest.chunks_exact(2);
+        for pair in &mut pairs {
+            let (wa, wb) = (&pair[0], &pair[1]);
+            let (mut sa, mut sb) = (0.0, 0.0);
+            for d in 0..q1 {
+                let da = u[d] - wa[d];
+                sa += da * da;
+                let db = u[d] - wb[d];
+                sb += db * db;
+            }
+            // NaN fails the comparison too: it is never kept
+            if below(sa, edge) {
+                if let Some(s) = rest_of_sum(wa, u, sa, q1, q2, edge) {
+                    if !c.push::<K>(s, number(wa)) {
+                        return false;
+                    }
+                    edge = c.edge;
+                }
+            }
+            if below(sb, edge) {
+                if let Some(s) = rest_of_sum(wb, u, sb, q1, q2, edge) {
+                    if !c.push::<K>(s, number(wb)) {
+                        return false;
+                    }
+                    edge = c.edge;
+                }
+            }
+        }
+        for wk in pairs.remainder() {
             let mut s = 0.0;
             for d in 0..q1 {
                 let diff = u[d] - wk[d];
                 s += diff * diff;
             }
-            // NaN fails the comparison too: it is never kept
-            if !below(s, edge) {
-                continue;
+            if below(s, edge) {
+                if let Some(s) = rest_of_sum(wk, u, s, q1, q2, edge) {
+                    if !c.push::<K>(s, number(wk)) {
+                        return false;
+                    }
+                    edge = c.edge;
+                }
             }
-            for d in q1..q2 {
-                let diff = u[d] - wk[d];
-                s += diff * diff;
-            }
-            if !below(s, edge) {
-                continue;
-            }
-            for d in q2..D {
-                let diff = u[d] - wk[d];
-                s += diff * diff;
-            }
-            if !below(s, edge) {
-                continue;
-            }
-            let k = (wk.as_ptr() as usize - base) / core::mem::size_of::<[f32; D]>();
-            if !c.push::<K>(s, k) {
-                return false;
-            }
-            edge = c.edge;
         }
         if c.live < K {
             return false;
         }
-        c.emit(&mut self.dist, &mut self.index);
+        let (kept, cut, live) = (c.kept, c.cut, c.live);
+        buf.emit(kept, cut, live, &mut self.dist, &mut self.index);
         true
     }
 
@@ -736,7 +829,8 @@ mod tests {
                 let mut full = Ranking::<1000>::new();
                 full.full_sort(&w, &u);
                 let mut part = Ranking::<128>::new();
-                if part.select_bucketed(&w, &u) {
+                let mut scratch = RankScratch::<1000>::new();
+                if part.select_bucketed(&w, &u, &mut scratch.buf) {
                     decided += 1;
                     assert_eq!(
                         &part.index[..],
