@@ -39,7 +39,7 @@ impl<const K: usize> Falloff<K> {
         Falloff { value: [0.0; K] }
     }
 
-    /// `exp(-r / range)` for `r = 0..K` (`libm::expf`, bit for bit; see [`exp_nonpositive`]).
+    /// `exp(-r / range)` for `r = 0..K` (`libm::expf`, bit for bit; see `exp_nonpositive`).
     pub fn compute(range: f32) -> Self {
         let mut value = [0.0; K];
         for (r, v) in value.iter_mut().enumerate() {
