@@ -74,11 +74,12 @@ fn setup(ctrl: &mut Controller) {
     ctrl.init_random(SEED);
 }
 
-/// The seed of the initial tables: `trn train --bus slcan:qemu` must use the same `--seed`.
+/// The seed of the tables at reset. In a session over the bus (`pil`) the runner's
+/// `SessionConfig` sets the configuration and re-seeds the tables with its own seed.
 const SEED: u64 = 1;
 
-/// The configuration `trn` gives the host controller for the default simulator
-/// (`trn_controller::presets::configure`, the one source both builds use).
+/// The configuration at reset: the one `trn` gives the host controller for the default
+/// simulator (`trn_controller::presets::configure`, the one source both builds use).
 fn host_config() -> Config {
     presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT)
 }

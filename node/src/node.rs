@@ -4,13 +4,14 @@
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
 
+use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{
     Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
 };
 use trn_protocol as proto;
 use trn_protocol::{
-    CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode, ModeChange,
-    NodeId, NodeState, PointStatus, Reassembler, TrialReport,
+    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode,
+    ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig, TrialReport,
 };
 
 use crate::codes;
@@ -44,6 +45,10 @@ pub struct ControllerNode {
     heartbeat_due_ms: Option<u32>,
     heartbeat_counter: u8,
     idle_requested: bool,
+    /// The session configuration in force (the last one accepted).
+    session: Option<SessionConfig>,
+    /// A bus mode the encoder must switch to before the next frame is sent.
+    bus_mode: Option<BusMode>,
     /// The last trial that ended, and the messages that ended it.
     last_trial: Option<u32>,
     last_final: heapless::Vec<Envelope, FINAL>,
@@ -77,6 +82,8 @@ impl ControllerNode {
             heartbeat_due_ms: None,
             heartbeat_counter: 0,
             idle_requested: false,
+            session: None,
+            bus_mode: None,
             last_trial: None,
             last_final: heapless::Vec::new(),
             stats: NodeStats {
@@ -155,6 +162,9 @@ impl ControllerNode {
         if let Some(env) = env {
             let mut out = Outbox::new();
             self.on_message(ctrl, &env, now_ms, &mut out);
+            if let Some(mode) = self.bus_mode.take() {
+                enc.set_mode(mode);
+            }
             send(enc, &out, tx)?;
         }
         Ok(())
@@ -283,6 +293,7 @@ impl ControllerNode {
                 let echo = ModeChange { mode: self.mode };
                 push(out, NodeId::Broadcast, echo.into());
             }
+            (NodeId::Controller, Message::SessionConfig(c)) => self.on_session_config(ctrl, c, out),
             (_, Message::Emergency(_)) => {
                 if self.trial.is_some() {
                     self.abort(ctrl, out);
@@ -290,6 +301,51 @@ impl ControllerNode {
             }
             _ => self.stats.ignored += 1,
         }
+    }
+
+    /// Applies a session's run parameters (SPEC.md 3.2): in `Idle` with no trial in progress,
+    /// a new configuration and tables seeded from `seed` (or, with `keep_tables`, a check that
+    /// the tables held were learned under this configuration); acknowledged by the echo to
+    /// `Broadcast`. A repeat of the configuration in force is acknowledged again without
+    /// re-seeding. Not inlined: the `Config` built here stays out of the callers' frames.
+    #[inline(never)]
+    fn on_session_config(&mut self, ctrl: &mut Controller, c: &SessionConfig, out: &mut Outbox) {
+        if self.session == Some(*c) {
+            push(out, NodeId::Broadcast, (*c).into());
+            return;
+        }
+        if self.mode != Mode::Idle || self.trial.is_some() {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_NOT_IDLE);
+        }
+        // the codes were range-checked on decode (`Message::validate`)
+        let (Some(preset), Some(ablation)) =
+            (Preset::from_code(c.preset), Ablation::from_code(c.ablation))
+        else {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+        };
+        let image = ImageSize {
+            width: c.image_width,
+            height: c.image_height,
+        };
+        let cfg = presets::configure(preset, ablation, image);
+        if c.keep_tables {
+            if ctrl.config().fingerprint() != cfg.fingerprint() {
+                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_MISMATCH);
+            }
+        } else {
+            if ctrl.set_config(cfg).is_err() {
+                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+            }
+            ctrl.init_random(c.seed);
+        }
+        self.session = Some(*c);
+        self.bus_mode = Some(if c.fd { BusMode::Fd } else { BusMode::Classic });
+        push(out, NodeId::Broadcast, (*c).into());
+    }
+
+    /// The session configuration in force, if the runner sent one.
+    pub fn session(&self) -> Option<&SessionConfig> {
+        self.session.as_ref()
     }
 
     /// True (and handled) when `trial` is the trial in progress (ignored: it is being

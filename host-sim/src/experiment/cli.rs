@@ -24,6 +24,18 @@ pub enum Cmd {
     Grasp(EvalArgs),
     /// Run the paper/project presets and the ablations over several seeds (README table).
     Compare(CompareArgs),
+    /// The conformance suite (protocol/SPEC.md): drives the controller on the bus (the
+    /// project's node, or with --external-controller whatever controller is on the bus)
+    /// through every trial sequence and checks its answers; fails if any check fails.
+    Conformance(ConformanceArgs),
+}
+
+/// `trn conformance`.
+#[derive(Debug, Args, Clone)]
+pub struct ConformanceArgs {
+    /// Shared options (the bus, the preset and seed sent in the `SessionConfig`).
+    #[command(flatten)]
+    pub common: Common,
 }
 
 /// Controller presets.
@@ -108,8 +120,8 @@ pub struct Common {
     /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
     /// separate `controller-node` process on IFACE: vcan0 or a real adapter) or `slcan:qemu`
     /// (the firmware in QEMU, CAN frames as SLCAN over its UART; build it first with
-    /// `bash scripts/cross/pil.sh --build-only`; it runs the project preset seeded with 1 on
-    /// CAN 2.0).
+    /// `bash scripts/cross/pil.sh --build-only`; it takes seed, preset, ablation and CAN mode
+    /// from the session's `SessionConfig`).
     #[arg(long, default_value = "inproc")]
     pub bus: String,
     /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a

@@ -10,10 +10,11 @@ use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, ImageSize};
 use trn_controller::{Config, Controller};
 use trn_protocol::bus::{InProcBus, ReceiveTimeout, RecordingPort};
-use trn_protocol::{BusMode, CanFrame};
+use trn_protocol::{BusMode, CanFrame, SessionConfig};
 
 use super::checkpoint_file;
 use super::cli::{Ablation, Common, Preset};
+use super::conformance::{self, Patience};
 use super::metrics;
 use super::report::Report;
 use super::rig::Rig;
@@ -34,6 +35,20 @@ pub fn controller_config(preset: Preset, ablation: Ablation, sim: &SimConfig) ->
         height: h.min(u16::MAX as u32) as u16,
     };
     presets::configure(preset.into(), ablation.into(), image)
+}
+
+/// The run parameters of a session for the controller (`SessionConfig`, SPEC.md 3.2).
+pub fn session_config(common: &Common, sim: &SimConfig, keep_tables: bool) -> SessionConfig {
+    let (w, h) = sim.image_size();
+    SessionConfig {
+        seed: common.seed,
+        preset: trn_controller::presets::Preset::from(common.preset) as u8,
+        ablation: trn_controller::presets::Ablation::from(common.ablation) as u8,
+        image_width: w.min(u16::MAX as u32) as u16,
+        image_height: h.min(u16::MAX as u32) as u16,
+        fd: common.fd,
+        keep_tables,
+    }
 }
 
 /// Loads the simulator configuration (defaults when no file is given).
@@ -67,6 +82,39 @@ pub fn run_plan_with(
     checkpoint_out: Option<&Path>,
     command: &str,
 ) -> Result<Report> {
+    run_job(
+        common,
+        plan,
+        cfg,
+        (checkpoint_in, checkpoint_out),
+        command,
+        false,
+    )
+}
+
+/// `trn conformance`: the conformance suite against the controller on the bus (the
+/// project's node unless `--external-controller`); the checks are in the report.
+pub fn run_conformance(common: &Common) -> Result<Report> {
+    let sim_cfg = load_sim_config(common.config.as_deref())?;
+    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
+    run_job(
+        common,
+        Plan::new(0, 0, 0),
+        cfg,
+        (None, None),
+        "conformance",
+        true,
+    )
+}
+
+fn run_job(
+    common: &Common,
+    plan: Plan,
+    cfg: Config,
+    (checkpoint_in, checkpoint_out): (Option<&Path>, Option<&Path>),
+    command: &str,
+    conformance: bool,
+) -> Result<Report> {
     let started = Instant::now();
     let sim_cfg = load_sim_config(common.config.as_deref())?;
     let plant = Plant::new(&sim_cfg, common.seed)?;
@@ -90,6 +138,18 @@ pub fn run_plan_with(
             msg: "--faults injects faults on the in-process bus only".into(),
         });
     }
+    if bus == BusSpec::SlcanQemu && (checkpoint_in.is_some() || checkpoint_out.is_some()) {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "the firmware keeps its tables in RAM: no --checkpoint-in/--checkpoint-out".into(),
+        });
+    }
+    // the run parameters go to the controller over the bus; a tuning configuration that no
+    // preset describes is given to the in-process controller directly instead
+    let keep_tables = checkpoint_in.is_some() || (common.external_controller && plan.trials == 0);
+    let session = (controller_config(common.preset, common.ablation, &sim_cfg).fingerprint()
+        == cfg.fingerprint())
+    .then(|| session_config(common, &sim_cfg, keep_tables));
     let provenance = Provenance::of(common.preset.into(), common.ablation.into());
     // every output must be writable before the run starts, not fail after it
     for p in [
@@ -121,6 +181,8 @@ pub fn run_plan_with(
     let setup = Setup {
         common,
         plan,
+        session,
+        conformance,
         cfg: &cfg,
         mode,
         bus: &bus,
@@ -151,17 +213,8 @@ pub fn run_plan_with(
             done
         }
         BusSpec::SlcanQemu => {
-            // processor-in-the-loop: the controller is the firmware in QEMU, seeded with 1 and
-            // configured as the host's project preset (firmware/src/main.rs)
-            if common.seed != 1
-                || common.preset != Preset::Project
-                || common.ablation != Ablation::None
-                || common.fd
-            {
-                return Err(bus_err(
-                    "the firmware runs the project preset seeded with 1 on CAN 2.0: use --seed 1, no --preset/--ablation/--fd".into(),
-                ));
-            }
+            // processor-in-the-loop: the controller is the firmware in QEMU, configured and
+            // seeded by the session's `SessionConfig` like any other controller
             let (port, child) = slcan_qemu::SlcanPort::spawn_qemu(
                 &slcan_qemu::qemu_arm(),
                 &slcan_qemu::firmware_elf(),
@@ -256,6 +309,10 @@ fn write_outputs(common: &Common, report: &Report) -> Result<()> {
 struct Setup<'a> {
     common: &'a Common,
     plan: Plan,
+    /// The run parameters sent to the controller first (none for a tuning configuration).
+    session: Option<SessionConfig>,
+    /// Run the conformance suite instead of the plan.
+    conformance: bool,
     cfg: &'a Config,
     mode: BusMode,
     bus: &'a BusSpec,
@@ -313,6 +370,33 @@ impl Setup<'_> {
             ..Timing::new(reply, silence)
         };
         let mut runner = Runner::new(rig, self.common.seed, timing);
+        if self.conformance {
+            let session = self.session.ok_or_else(|| Error::BusOpen {
+                bus: self.common.bus.clone(),
+                msg: "the conformance suite needs a preset configuration".into(),
+            })?;
+            let patience = match self.bus {
+                BusSpec::SlcanQemu => Patience {
+                    answer: Duration::from_secs(120),
+                    quiet: Duration::from_secs(5),
+                },
+                BusSpec::SocketCan(_) | BusSpec::SlcanSerial(_) => Patience {
+                    answer: Duration::from_secs(20),
+                    quiet: Duration::from_millis(600),
+                },
+                BusSpec::InProc => Patience {
+                    answer: Duration::from_secs(10),
+                    quiet: Duration::from_millis(150),
+                },
+            };
+            let checks = conformance::run(&mut runner, session, patience);
+            report.bus_stats.runner = runner.stats();
+            report.conformance = checks?;
+            return Ok(());
+        }
+        if let Some(s) = self.session {
+            runner.configure(s)?;
+        }
         let log = schedule::run(
             &mut runner,
             self.plan,
