@@ -2,13 +2,18 @@
 //! in-process bus, on CAN 2.0 and CAN FD, both presets. (Over SocketCAN it runs in the
 //! vcan VM, `scripts/vcan/tests.sh`; against the firmware in QEMU, `scripts/cross/pil.sh`.)
 
-use trn_sim::experiment::cli::{Ablation, Common, Preset};
+use trn_sim::experiment::cli::{Ablation, Common, Controller, Preset};
 use trn_sim::experiment::run::run_conformance;
 
 fn suite(seed: u64, preset: Preset, fd: bool) {
+    suite_with(seed, preset, fd, Controller::Trn)
+}
+
+fn suite_with(seed: u64, preset: Preset, fd: bool, controller: Controller) {
     let common = Common {
         quiet: true,
         fd,
+        controller,
         ..Common::inproc(seed, preset, Ablation::None)
     };
     let r = run_conformance(&common).unwrap();
@@ -25,4 +30,9 @@ fn the_project_node_conforms_on_can_2_0() {
 #[test]
 fn the_project_node_conforms_on_can_fd_with_the_paper_preset() {
     suite(101, Preset::Paper, true);
+}
+
+#[test]
+fn the_broyden_baseline_conforms_too() {
+    suite_with(102, Preset::Project, false, Controller::Broyden);
 }

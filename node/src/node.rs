@@ -8,6 +8,7 @@ use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{
     Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
 };
+use trn_controller::{Config, Law};
 use trn_protocol as proto;
 use trn_protocol::{
     BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode,
@@ -327,7 +328,13 @@ impl ControllerNode {
             width: c.image_width,
             height: c.image_height,
         };
-        let cfg = presets::configure(preset, ablation, image);
+        let Some(law) = Law::from_code(c.law) else {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+        };
+        let cfg = Config {
+            law,
+            ..presets::configure(preset, ablation, image)
+        };
         if c.keep_tables {
             if ctrl.config().fingerprint() != cfg.fingerprint() {
                 return error(out, codes::CONFIG_REJECTED, codes::CONFIG_MISMATCH);

@@ -49,6 +49,25 @@ pub enum Preset {
     Lifelong,
 }
 
+/// The control law (`--controller`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Controller {
+    /// The topology representing network (the chapter's method).
+    Trn,
+    /// Uncalibrated visual servoing with a Broyden Jacobian (no training): the classical
+    /// alternative, for comparison.
+    Broyden,
+}
+
+impl From<Controller> for trn_controller::Law {
+    fn from(c: Controller) -> Self {
+        match c {
+            Controller::Trn => Self::Trn,
+            Controller::Broyden => Self::Broyden,
+        }
+    }
+}
+
 /// Ablations of the method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Ablation {
@@ -137,6 +156,9 @@ pub struct Common {
     /// Ablation.
     #[arg(long, value_enum, default_value_t = Ablation::None)]
     pub ablation: Ablation,
+    /// The control law: the TRN, or the Broyden servo baseline (which does not train).
+    #[arg(long, value_enum, default_value_t = Controller::Trn)]
+    pub controller: Controller,
     /// Held-out targets per network in the evaluation.
     #[arg(long, default_value_t = 100)]
     pub eval_targets: usize,
@@ -189,6 +211,7 @@ impl Common {
             fd: false,
             preset,
             ablation,
+            controller: Controller::Trn,
             eval_targets: 100,
             grasps: 50,
             fine_moves: 6,

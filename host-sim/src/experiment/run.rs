@@ -13,7 +13,7 @@ use trn_protocol::bus::{InProcBus, ReceiveTimeout, RecordingPort};
 use trn_protocol::{BusMode, CanFrame, SessionConfig};
 
 use super::checkpoint_file;
-use super::cli::{Ablation, Common, Preset};
+use super::cli::{self, Ablation, Common, Preset};
 use super::conformance::{self, Patience};
 use super::metrics;
 use super::report::Report;
@@ -48,6 +48,15 @@ pub fn session_config(common: &Common, sim: &SimConfig, keep_tables: bool) -> Se
         image_height: h.min(u16::MAX as u32) as u16,
         fd: common.fd,
         keep_tables,
+        law: trn_controller::Law::from(common.controller) as u8,
+    }
+}
+
+/// The controller configuration of a run's options: preset, ablation, control law.
+pub fn common_config(common: &Common, sim: &SimConfig) -> Config {
+    Config {
+        law: common.controller.into(),
+        ..controller_config(common.preset, common.ablation, sim)
     }
 }
 
@@ -68,7 +77,7 @@ pub fn run_plan(
     command: &str,
 ) -> Result<Report> {
     let sim_cfg = load_sim_config(common.config.as_deref())?;
-    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
+    let cfg = common_config(common, &sim_cfg);
     run_plan_with(common, plan, cfg, checkpoint_in, checkpoint_out, command)
 }
 
@@ -96,7 +105,7 @@ pub fn run_plan_with(
 /// project's node unless `--external-controller`); the checks are in the report.
 pub fn run_conformance(common: &Common) -> Result<Report> {
     let sim_cfg = load_sim_config(common.config.as_deref())?;
-    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
+    let cfg = common_config(common, &sim_cfg);
     run_job(
         common,
         Plan::new(0, 0, 0),
@@ -147,9 +156,8 @@ fn run_job(
     // the run parameters go to the controller over the bus; a tuning configuration that no
     // preset describes is given to the in-process controller directly instead
     let keep_tables = checkpoint_in.is_some() || (common.external_controller && plan.trials == 0);
-    let session = (controller_config(common.preset, common.ablation, &sim_cfg).fingerprint()
-        == cfg.fingerprint())
-    .then(|| session_config(common, &sim_cfg, keep_tables));
+    let session = (common_config(common, &sim_cfg).fingerprint() == cfg.fingerprint())
+        .then(|| session_config(common, &sim_cfg, keep_tables));
     let provenance = Provenance::of(common.preset.into(), common.ablation.into());
     // every output must be writable before the run starts, not fail after it
     for p in [
@@ -165,9 +173,10 @@ fn run_job(
     }
     let mut report = Report {
         command: command.to_string(),
-        preset: match common.ablation {
-            Ablation::None => common.preset.name().to_string(),
-            a => format!("{}+{}", common.preset.name(), a.name().replace('-', "")),
+        preset: match (common.controller, common.ablation) {
+            (cli::Controller::Broyden, _) => "broyden".to_string(),
+            (_, Ablation::None) => common.preset.name().to_string(),
+            (_, a) => format!("{}+{}", common.preset.name(), a.name().replace('-', "")),
         },
         trials: plan.trials,
         seed: common.seed,
@@ -244,6 +253,7 @@ fn run_job(
                         seed: common.seed,
                         preset: common.preset.name(),
                         ablation: common.ablation.name(),
+                        controller: trn_controller::Law::from(common.controller).name(),
                         config: common.config.as_deref(),
                         fd: common.fd,
                         checkpoint_in,

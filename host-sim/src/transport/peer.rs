@@ -53,6 +53,8 @@ pub struct NodeArgs<'a> {
     pub preset: &'a str,
     /// Ablation name.
     pub ablation: &'a str,
+    /// Control law name (`trn`, `broyden`).
+    pub controller: &'a str,
     /// Simulator configuration (for the image size).
     pub config: Option<&'a Path>,
     /// CAN FD framing.
@@ -78,7 +80,9 @@ pub fn spawn_controller_node(a: &NodeArgs, bus: &str) -> Result<Child> {
     cmd.arg("--preset")
         .arg(a.preset)
         .arg("--ablation")
-        .arg(a.ablation);
+        .arg(a.ablation)
+        .arg("--controller")
+        .arg(a.controller);
     if let Some(c) = a.config {
         cmd.arg("--config").arg(c);
     }

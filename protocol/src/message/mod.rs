@@ -137,7 +137,7 @@ messages! {
     CaptureRequest = 3;
     Observation = 39;
     ModeChange = 1;
-    SessionConfig = 16;
+    SessionConfig = 17;
     SupervisedPressure = 24;
     Stage1Target = 39;
     Stage2Target = 23;
@@ -204,6 +204,9 @@ impl Message {
                 }
                 if m.ablation >= ABLATION_CODES {
                     return Err(Error::OutOfRange("ablation"));
+                }
+                if m.law >= LAW_CODES {
+                    return Err(Error::OutOfRange("law"));
                 }
                 for (side, f) in [
                     (m.image_width, "image_width"),

@@ -82,6 +82,8 @@ pub struct Emergency {
 pub const PRESET_CODES: u8 = 3;
 /// Number of ablations on the wire (`SessionConfig::ablation` is below it).
 pub const ABLATION_CODES: u8 = 4;
+/// Number of control laws on the wire (`SessionConfig::law` is below it).
+pub const LAW_CODES: u8 = 2;
 /// Largest image side a session may announce, in pixels.
 pub const IMAGE_SIDE_MAX: u16 = 8192;
 
@@ -108,4 +110,6 @@ pub struct SessionConfig {
     /// Keep the tables the controller holds (loaded from a checkpoint) instead of seeding new
     /// ones; the controller's configuration must then already be the one described here.
     pub keep_tables: bool,
+    /// Control law: 0 the TRN, 1 the Broyden servo baseline (`trn_controller::Law`).
+    pub law: u8,
 }

@@ -217,10 +217,10 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
             1..=IMAGE_SIDE_MAX,
             1..=IMAGE_SIDE_MAX,
             any::<bool>(),
-            any::<bool>()
+            (any::<bool>(), 0..LAW_CODES)
         )
             .prop_map(
-                |(n, seed, preset, ablation, image_width, image_height, fd, keep_tables)| {
+                |(n, seed, preset, ablation, image_width, image_height, fd, (keep_tables, law))| {
                     Envelope::new(
                         n,
                         SessionConfig {
@@ -231,6 +231,7 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
                             image_height,
                             fd,
                             keep_tables,
+                            law,
                         }
                         .into(),
                     )
