@@ -192,17 +192,21 @@ pub enum Law {
     /// Uncalibrated visual servoing with a Broyden Jacobian, no training
     /// ([`crate::broyden`]): the classical alternative, for comparison.
     Broyden = 1,
+    /// A model-based reference outside this crate (the simulator's nominal inverse
+    /// kinematics, host only): [`crate::Controller`] refuses it.
+    Model = 2,
 }
 
 impl Law {
     /// Every law, in wire order (`SessionConfig::law`).
-    pub const ALL: [Law; 2] = [Law::Trn, Law::Broyden];
+    pub const ALL: [Law; 3] = [Law::Trn, Law::Broyden, Law::Model];
 
     /// The law of a wire code.
     pub const fn from_code(code: u8) -> Option<Law> {
         match code {
             0 => Some(Law::Trn),
             1 => Some(Law::Broyden),
+            2 => Some(Law::Model),
             _ => None,
         }
     }
@@ -212,6 +216,7 @@ impl Law {
         match self {
             Law::Trn => "trn",
             Law::Broyden => "broyden",
+            Law::Model => "model",
         }
     }
 }

@@ -29,6 +29,7 @@
 pub mod broyden;
 pub mod checkpoint;
 pub mod config;
+mod control;
 mod controller;
 mod error;
 pub mod net;
@@ -38,6 +39,7 @@ pub mod rules;
 pub mod stage;
 
 pub use config::{Config, Law, StageConfig};
+pub use control::Control;
 pub use controller::{
     Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, JOINTS, RANKS,
 };

@@ -36,3 +36,8 @@ fn the_project_node_conforms_on_can_fd_with_the_paper_preset() {
 fn the_broyden_baseline_conforms_too() {
     suite_with(102, Preset::Project, false, Controller::Broyden);
 }
+
+#[test]
+fn the_model_based_reference_conforms_too() {
+    suite_with(103, Preset::Project, false, Controller::Model);
+}

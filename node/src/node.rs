@@ -5,9 +5,7 @@
 //! with the same final messages again.
 
 use trn_controller::presets::{self, Ablation, ImageSize, Preset};
-use trn_controller::{
-    Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
-};
+use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task};
 use trn_controller::{Config, Law};
 use trn_protocol as proto;
 use trn_protocol::{
@@ -32,7 +30,8 @@ struct PendingGrasp {
 /// error and the abort).
 const FINAL: usize = 4;
 
-/// The controller as a CAN node. It does not own the [`Controller`] (firmware keeps that in
+/// The controller as a CAN node. It does not own the controller (any [`Control`]; firmware
+/// keeps the project's `trn_controller::Controller` in
 /// a `static`); every call borrows it.
 #[derive(Debug, Clone)]
 pub struct ControllerNode {
@@ -115,7 +114,7 @@ impl ControllerNode {
     }
 
     /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
-    pub fn poll(&mut self, ctrl: &mut Controller, now_ms: u32, out: &mut Outbox) {
+    pub fn poll<C: Control + ?Sized>(&mut self, ctrl: &mut C, now_ms: u32, out: &mut Outbox) {
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);
         if now_ms.wrapping_sub(due) < u32::MAX / 2 {
             let hb = Heartbeat {
@@ -150,9 +149,9 @@ impl ControllerNode {
     /// frame to send is passed to `tx`, encoded by `enc`. Frame errors (malformed, lost,
     /// corrupt segments) are returned after the frame is dropped.
     #[inline(never)]
-    pub fn on_frame<const SLOTS: usize>(
+    pub fn on_frame<const SLOTS: usize, C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         rx: &mut Reassembler<SLOTS>,
         enc: &mut Encoder,
         frame: &CanFrame,
@@ -173,9 +172,9 @@ impl ControllerNode {
 
     /// [`ControllerNode::poll`] with the output encoded and passed to `tx`.
     #[inline(never)]
-    pub fn poll_frames(
+    pub fn poll_frames<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         enc: &mut Encoder,
         now_ms: u32,
         tx: &mut impl FnMut(&CanFrame),
@@ -186,9 +185,9 @@ impl ControllerNode {
     }
 
     /// Handles one received message.
-    pub fn on_message(
+    pub fn on_message<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         env: &Envelope,
         now_ms: u32,
         out: &mut Outbox,
@@ -310,7 +309,12 @@ impl ControllerNode {
     /// `Broadcast`. A repeat of the configuration in force is acknowledged again without
     /// re-seeding. Not inlined: the `Config` built here stays out of the callers' frames.
     #[inline(never)]
-    fn on_session_config(&mut self, ctrl: &mut Controller, c: &SessionConfig, out: &mut Outbox) {
+    fn on_session_config<C: Control + ?Sized>(
+        &mut self,
+        ctrl: &mut C,
+        c: &SessionConfig,
+        out: &mut Outbox,
+    ) {
         if self.session == Some(*c) {
             push(out, NodeId::Broadcast, (*c).into());
             return;
@@ -390,9 +394,9 @@ impl ControllerNode {
         self.mode
     }
 
-    fn start(
+    fn start<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         trial: u32,
         task: Task,
         fine: FineMoves,
@@ -413,9 +417,9 @@ impl ControllerNode {
         }
     }
 
-    fn on_observation(
+    fn on_observation<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         o: &proto::Observation,
         now_ms: u32,
         out: &mut Outbox,
@@ -496,7 +500,7 @@ impl ControllerNode {
         self.end_trial(out, from);
     }
 
-    fn reject(&mut self, ctrl: &mut Controller, e: CtrlError, out: &mut Outbox) {
+    fn reject<C: Control + ?Sized>(&mut self, ctrl: &mut C, e: CtrlError, out: &mut Outbox) {
         error(
             out,
             codes::CONTROLLER_ERROR,
@@ -507,7 +511,7 @@ impl ControllerNode {
 
     /// Ends the trial in progress without a result: the runner sees `TRIAL_ABORTED` with
     /// the trial number, after the report of the reason.
-    fn abort(&mut self, ctrl: &mut Controller, out: &mut Outbox) {
+    fn abort<C: Control + ?Sized>(&mut self, ctrl: &mut C, out: &mut Outbox) {
         ctrl.abort();
         let from = out.len().saturating_sub(1);
         let trial = self.trial.unwrap_or(0);

@@ -57,6 +57,9 @@ pub enum Controller {
     /// Uncalibrated visual servoing with a Broyden Jacobian (no training): the classical
     /// alternative, for comparison.
     Broyden,
+    /// The simulator's nominal inverse kinematics: a perfectly calibrated model-based
+    /// controller without hysteresis compensation (a reference; in process only).
+    Model,
 }
 
 impl From<Controller> for trn_controller::Law {
@@ -64,6 +67,7 @@ impl From<Controller> for trn_controller::Law {
         match c {
             Controller::Trn => Self::Trn,
             Controller::Broyden => Self::Broyden,
+            Controller::Model => Self::Model,
         }
     }
 }

@@ -120,6 +120,9 @@ impl Entry {
     pub fn name(&self) -> String {
         match (self.controller, self.ablation) {
             (Controller::Broyden, _) => "Broyden servo (no training)".to_string(),
+            (Controller::Model, _) => {
+                "nominal inverse kinematics (calibrated model, no learning)".to_string()
+            }
             (_, Ablation::None) => self.preset.name().to_string(),
             (_, Ablation::NoNeighbourhood) => {
                 format!("{}, no-neighbourhood (plain VQ table)", self.preset.name())
@@ -131,14 +134,14 @@ impl Entry {
     /// Training trials per network: none for a method that does not train.
     pub fn trials(&self, trials: usize) -> usize {
         match self.controller {
-            Controller::Broyden => 0,
+            Controller::Broyden | Controller::Model => 0,
             Controller::Trn => trials,
         }
     }
 }
 
 /// The configurations of the table.
-pub const CONFIGS: [Entry; 6] = [
+pub const CONFIGS: [Entry; 7] = [
     Entry::trn(Preset::Project, Ablation::None),
     Entry::trn(Preset::Paper, Ablation::None),
     Entry::trn(Preset::Project, Ablation::NoNeighbourhood),
@@ -148,6 +151,11 @@ pub const CONFIGS: [Entry; 6] = [
         preset: Preset::Project,
         ablation: Ablation::None,
         controller: Controller::Broyden,
+    },
+    Entry {
+        preset: Preset::Project,
+        ablation: Ablation::None,
+        controller: Controller::Model,
     },
 ];
 

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use embedded_can::blocking::Can;
 use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, ImageSize};
-use trn_controller::{Config, Controller};
+use trn_controller::{Config, Controller, Law};
 use trn_protocol::bus::{InProcBus, ReceiveTimeout, RecordingPort};
 use trn_protocol::{BusMode, CanFrame, SessionConfig};
 
@@ -23,6 +23,7 @@ use super::schedule;
 pub use super::schedule::Plan;
 use crate::error::{io, Error, Result};
 use crate::plant::{Plant, SimConfig};
+use crate::reference::NominalIk;
 use crate::transport::controller_loop::{ControllerThread, LoopStats};
 use crate::transport::peer::{self, Peer};
 use crate::transport::{slcan_qemu, slcan_serial, BusSpec};
@@ -147,6 +148,14 @@ fn run_job(
             msg: "--faults injects faults on the in-process bus only".into(),
         });
     }
+    if cfg.law == Law::Model
+        && (bus != BusSpec::InProc || checkpoint_in.is_some() || checkpoint_out.is_some())
+    {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "the model-based reference (--controller model) carries the simulator's model: in process only, no checkpoints".into(),
+        });
+    }
     if bus == BusSpec::SlcanQemu && (checkpoint_in.is_some() || checkpoint_out.is_some()) {
         return Err(Error::BusOpen {
             bus: common.bus.clone(),
@@ -175,6 +184,7 @@ fn run_job(
         command: command.to_string(),
         preset: match (common.controller, common.ablation) {
             (cli::Controller::Broyden, _) => "broyden".to_string(),
+            (cli::Controller::Model, _) => "model".to_string(),
             (_, Ablation::None) => common.preset.name().to_string(),
             (_, a) => format!("{}+{}", common.preset.name(), a.name().replace('-', "")),
         },
@@ -202,12 +212,18 @@ fn run_job(
             if let Some(f) = common.faults {
                 inproc.set_faults(f);
             }
-            let mut ctrl = Box::new(Controller::new(cfg));
-            ctrl.init_random(common.seed);
-            if let Some(p) = checkpoint_in {
-                checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
-            }
-            let peer = Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode));
+            let peer = if cfg.law == Law::Model {
+                // the model-based reference: the simulator's own model, in process only
+                let reference = Box::new(NominalIk::new(&sim_cfg, cfg)?);
+                Peer::Reference(ControllerThread::spawn(inproc.port(), reference, mode))
+            } else {
+                let mut ctrl = Box::new(Controller::new(cfg));
+                ctrl.init_random(common.seed);
+                if let Some(p) = checkpoint_in {
+                    checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
+                }
+                Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode))
+            };
             let done = setup.drive(inproc.port(), plant, peer, &mut report)?;
             let s = inproc.stats();
             report.bus_stats.injected = Some(counts([

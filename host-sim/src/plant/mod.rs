@@ -122,6 +122,14 @@ impl Plant {
         }
     }
 
+    /// Puts every joint at rest at its equilibrium for pressures `p` at once (no dynamics,
+    /// no time passes): the static map of a model (the model-based reference), tests.
+    pub fn settle_joints_at(&mut self, p: &[f64; 5]) {
+        for (j, &x) in self.joints.iter_mut().zip(p) {
+            j.settle_at(x);
+        }
+    }
+
     /// Commands some joints.
     pub fn command_joints(&mut self, p: &[(usize, f32)]) {
         for &(i, x) in p {

@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 pub enum Peer {
     /// The controller node in a thread (in-process bus): its tables come back at the end.
     Thread(ControllerThread),
+    /// The model-based reference in a thread (in-process bus): nothing comes back.
+    Reference(ControllerThread<crate::reference::NominalIk>),
     /// A child process.
     Process(Child),
     /// A controller this run did not start (a board on the bus): nothing to stop.
@@ -123,6 +125,12 @@ impl Peer {
                 }
                 let (ctrl, stats) = t.join().map_err(|e| bus_err(e.to_string()))?;
                 Ok(Some((ctrl, stats)))
+            }
+            Peer::Reference(t) => {
+                if session_ok {
+                    t.join().map_err(|e| bus_err(e.to_string()))?;
+                }
+                Ok(None)
             }
             Peer::External => Ok(None),
             Peer::Process(mut child) => {

@@ -83,7 +83,7 @@ pub const PRESET_CODES: u8 = 3;
 /// Number of ablations on the wire (`SessionConfig::ablation` is below it).
 pub const ABLATION_CODES: u8 = 4;
 /// Number of control laws on the wire (`SessionConfig::law` is below it).
-pub const LAW_CODES: u8 = 2;
+pub const LAW_CODES: u8 = 3;
 /// Largest image side a session may announce, in pixels.
 pub const IMAGE_SIDE_MAX: u16 = 8192;
 
@@ -110,6 +110,7 @@ pub struct SessionConfig {
     /// Keep the tables the controller holds (loaded from a checkpoint) instead of seeding new
     /// ones; the controller's configuration must then already be the one described here.
     pub keep_tables: bool,
-    /// Control law: 0 the TRN, 1 the Broyden servo baseline (`trn_controller::Law`).
+    /// Control law: 0 the TRN, 1 the Broyden servo baseline, 2 a model-based reference
+    /// controller outside the controller crate (`trn_controller::Law`).
     pub law: u8,
 }
