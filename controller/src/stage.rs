@@ -451,7 +451,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
 }
 
 /// A target or observation as a stage accepts it: finite, within the configured range.
-pub(crate) fn check_input<const D: usize>(cfg: &StageConfig, u: &[f32; D]) -> Result<()> {
+pub fn check_input<const D: usize>(cfg: &StageConfig, u: &[f32; D]) -> Result<()> {
     for (i, &x) in u.iter().enumerate() {
         if !x.is_finite() {
             return Err(Error::NonFiniteInput { index: i as u8 });

@@ -197,19 +197,7 @@ impl NominalIk {
     }
 
     fn check<const D: usize>(&self, u: &[f32; D]) -> trn_controller::Result<()> {
-        let s = &self.cfg.stage1;
-        for (i, &x) in u.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(Error::NonFiniteInput { index: i as u8 });
-            }
-            if x < s.input_min || x > s.input_max {
-                return Err(Error::InputOutOfRange {
-                    index: i as u8,
-                    value: x,
-                });
-            }
-        }
-        Ok(())
+        trn_controller::stage::check_input(&self.cfg.stage1, u)
     }
 }
 
