@@ -137,7 +137,8 @@ pub struct Common {
     /// README reports seeds from 100 up.
     #[arg(long, default_value_t = 100)]
     pub seed: u64,
-    /// Simulator configuration (TOML); the built-in defaults when absent.
+    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
+    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
@@ -286,7 +287,8 @@ pub struct CompareArgs {
     /// Only the project preset (the test suite's band check).
     #[arg(long)]
     pub project_only: bool,
-    /// Simulator configuration (TOML); the built-in defaults when absent.
+    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
+    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Write every seed's figures as JSON here.

@@ -61,11 +61,15 @@ pub fn common_config(common: &Common, sim: &SimConfig) -> Config {
     }
 }
 
-/// Loads the simulator configuration (defaults when no file is given).
+/// Loads the simulator configuration: the built-in default when none is given, a built-in
+/// one by name (`ideal`, `realistic`) unless a file of that name exists, else the file.
 pub fn load_sim_config(path: Option<&Path>) -> Result<SimConfig> {
     match path {
         None => Ok(SimConfig::default()),
-        Some(p) => SimConfig::load(p),
+        Some(p) => match p.to_str().and_then(SimConfig::named) {
+            Some(c) if !p.exists() => Ok(c),
+            _ => SimConfig::load(p),
+        },
     }
 }
 
