@@ -54,5 +54,9 @@ done
 # the conformance suite against the firmware (protocol/SPEC.md 3, 3.2), over the same SLCAN link
 TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 100 > "$out/conformance.txt" || status=1
 echo "pil conformance (firmware in QEMU): $(tail -n 1 "$out/conformance.txt")"
+# the Broyden servo baseline on the same firmware image (SessionConfig law 1)
+TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 101 --controller broyden > "$out/conformance-broyden.txt" || status=1
+echo "pil conformance, Broyden servo (firmware in QEMU): $(tail -n 1 "$out/conformance-broyden.txt")"
+grep FAIL -A 1 "$out/conformance-broyden.txt" || true
 grep FAIL -A 1 "$out/conformance.txt" || true
 exit $status
