@@ -4,6 +4,7 @@
 //! `READING-NOTES.md` fixed: normalised averages). [`Config::project_default`] holds the
 //! project's defaults; each deviation is named and justified on the field it changes.
 
+use crate::broyden::BroydenConfig;
 use libm::{expf, sqrtf};
 
 /// How a learning rate decays with the learning step `t`.
@@ -175,6 +176,49 @@ pub struct Config {
     pub stage2: StageConfig,
     /// Number of supervised priming steps of stage 1 (`n_sup`): 50.
     pub supervised_steps: u32,
+    /// The control law of both stages: the TRN, or the Broyden servo baseline.
+    pub law: Law,
+    /// The Broyden servo's constants (used when `law` is [`Law::Broyden`]).
+    pub broyden: BroydenConfig,
+}
+
+/// The control law of both stages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
+#[repr(u8)]
+pub enum Law {
+    /// The topology representing network (the chapter's method).
+    #[default]
+    Trn = 0,
+    /// Uncalibrated visual servoing with a Broyden Jacobian, no training
+    /// ([`crate::broyden`]): the classical alternative, for comparison.
+    Broyden = 1,
+    /// A model-based reference outside this crate (the simulator's nominal inverse
+    /// kinematics, host only): [`crate::Controller`] refuses it.
+    Model = 2,
+}
+
+impl Law {
+    /// Every law, in wire order (`SessionConfig::law`).
+    pub const ALL: [Law; 3] = [Law::Trn, Law::Broyden, Law::Model];
+
+    /// The law of a wire code.
+    pub const fn from_code(code: u8) -> Option<Law> {
+        match code {
+            0 => Some(Law::Trn),
+            1 => Some(Law::Broyden),
+            2 => Some(Law::Model),
+            _ => None,
+        }
+    }
+
+    /// Its name on the command line and in reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Law::Trn => "trn",
+            Law::Broyden => "broyden",
+            Law::Model => "model",
+        }
+    }
 }
 
 /// The project's deviations from the paper for one stage (see [`Config::project_default`]);
@@ -271,6 +315,8 @@ impl Config {
             stage1,
             stage2,
             supervised_steps: 50,
+            law: Law::Trn,
+            broyden: BroydenConfig::DEFAULT,
         }
     }
 
@@ -312,6 +358,8 @@ impl Config {
             stage1: project_stage(paper.stage1, 1.5),
             stage2: project_stage(paper.stage2, 1.0),
             supervised_steps: 50,
+            law: Law::Trn,
+            broyden: BroydenConfig::DEFAULT,
         }
     }
 
@@ -374,6 +422,8 @@ impl Config {
             stage1: ZERO_STAGE,
             stage2: ZERO_STAGE,
             supervised_steps: 0,
+            law: Law::Trn,
+            broyden: crate::broyden::ZERO_CONFIG,
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Both networks and the two-stage grasp, behind one state machine.
 
-use crate::config::Config;
+use crate::broyden::BroydenStage;
+use crate::config::{Config, Law};
 use crate::error::{Error, Result};
 use crate::stage::{FineMoves, Stage, StageOutcome, StageStep};
 
@@ -144,6 +145,9 @@ pub struct Controller {
     held: [f32; JOINTS],
     /// The fine-move rule of the task in progress (a grasp's stage 2 uses it too).
     fine: FineMoves,
+    /// The Broyden servo's stages, run instead of the networks under [`Law::Broyden`].
+    broyden1: BroydenStage<8, 5>,
+    broyden2: BroydenStage<4, 3>,
 }
 
 impl Controller {
@@ -160,6 +164,8 @@ impl Controller {
             stage1_done: false,
             held: [0.0; JOINTS],
             fine: FineMoves::Policy,
+            broyden1: BroydenStage::new(cfg.stage1, cfg.broyden),
+            broyden2: BroydenStage::new(cfg.stage2, cfg.broyden),
         }
     }
 
@@ -177,7 +183,20 @@ impl Controller {
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
         self.stage1.init_random(&mut rng);
         self.stage2.init_random(&mut rng);
+        // the Broyden servo starts afresh too: it measures its Jacobian again
+        self.broyden1.reset();
+        self.broyden2.reset();
         self.running = Running::Idle;
+    }
+
+    /// The Broyden servo's stage 1 (run under [`Law::Broyden`]).
+    pub fn broyden1(&self) -> &BroydenStage<8, 5> {
+        &self.broyden1
+    }
+
+    /// The Broyden servo's stage 2.
+    pub fn broyden2(&self) -> &BroydenStage<4, 3> {
+        &self.broyden2
     }
 
     /// The configuration.
@@ -190,8 +209,13 @@ impl Controller {
         if self.busy() {
             return Err(Error::Busy);
         }
+        if cfg.law == Law::Model {
+            return Err(Error::UnsupportedLaw);
+        }
         self.stage1.set_config(cfg.stage1)?;
         self.stage2.set_config(cfg.stage2)?;
+        self.broyden1.set_config(cfg.stage1, cfg.broyden)?;
+        self.broyden2.set_config(cfg.stage2, cfg.broyden)?;
         self.cfg = cfg;
         Ok(())
     }
@@ -225,6 +249,8 @@ impl Controller {
     pub fn abort(&mut self) {
         self.stage1.abort();
         self.stage2.abort();
+        self.broyden1.abort();
+        self.broyden2.abort();
         self.running = Running::Idle;
     }
 
@@ -248,17 +274,18 @@ impl Controller {
                 supervised,
                 learn,
             } => {
-                let p = self
-                    .stage1
-                    .begin_with(&v, supervised.as_ref(), learn, fine)?;
+                let p = self.begin1(&v, supervised.as_ref(), learn)?;
                 self.running = Running::Stage1;
                 Ok(self.move1(p))
             }
             Task::Stage2 { c, learn } => self.begin2(&c, learn),
             Task::Grasp { v, c, learn } => {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
-                self.stage2.check_input(&c)?;
-                let p = self.stage1.begin_with(&v, None, learn, fine)?;
+                match self.cfg.law {
+                    Law::Trn | Law::Model => self.stage2.check_input(&c)?,
+                    Law::Broyden => self.broyden2.check_input(&c)?,
+                }
+                let p = self.begin1(&v, None, learn)?;
                 self.grasp_c = c;
                 self.running = Running::GraspStage1;
                 Ok(self.move1(p))
@@ -266,8 +293,39 @@ impl Controller {
         }
     }
 
+    /// Stage 1's first move under the configured law (the Broyden servo does not train:
+    /// it ignores `supervised` and `learn`).
+    fn begin1(
+        &mut self,
+        v: &[f32; 8],
+        supervised: Option<&[f32; 5]>,
+        learn: bool,
+    ) -> Result<[f32; 5]> {
+        match self.cfg.law {
+            Law::Trn | Law::Model => self.stage1.begin_with(v, supervised, learn, self.fine),
+            Law::Broyden => self.broyden1.begin_with(v, supervised.is_some(), self.fine),
+        }
+    }
+
+    fn observe1(&mut self, v: &[f32; 8]) -> Result<StageStep<5>> {
+        match self.cfg.law {
+            Law::Trn | Law::Model => self.stage1.observe(v),
+            Law::Broyden => self.broyden1.observe(v),
+        }
+    }
+
+    fn observe2(&mut self, c: &[f32; 4]) -> Result<StageStep<3>> {
+        match self.cfg.law {
+            Law::Trn | Law::Model => self.stage2.observe(c),
+            Law::Broyden => self.broyden2.observe(c),
+        }
+    }
+
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
-        let p = self.stage2.begin_with(c, None, learn, self.fine)?;
+        let p = match self.cfg.law {
+            Law::Trn | Law::Model => self.stage2.begin_with(c, None, learn, self.fine)?,
+            Law::Broyden => self.broyden2.begin_with(c, false, self.fine)?,
+        };
         self.running = Running::Stage2;
         Ok(self.move2(p))
     }
@@ -300,7 +358,7 @@ impl Controller {
                 } else {
                     None
                 };
-                match self.stage1.observe(&v)? {
+                match self.observe1(&v)? {
                     StageStep::Move(p) => Ok(self.move1(p)),
                     StageStep::Done(o) => {
                         self.stage1_outcome = o;
@@ -321,7 +379,7 @@ impl Controller {
                     }
                 }
             }
-            (Running::Stage2, Observation::Centre(c)) => match self.stage2.observe(&c)? {
+            (Running::Stage2, Observation::Centre(c)) => match self.observe2(&c)? {
                 StageStep::Move(p) => Ok(self.move2(p)),
                 StageStep::Done(o) => Ok(self.done(Some(o))),
             },

@@ -29,6 +29,9 @@ pub enum Error {
     ZeroLengthDv,
     /// A fixed budget of fine moves beyond what a trial can trace (31).
     FineMoveBudget,
+    /// The configuration asks for a control law this controller does not run
+    /// ([`crate::Law::Model`] is a host-side reference, not this crate's).
+    UnsupportedLaw,
     /// An observation arrived while none was awaited.
     UnexpectedObservation,
     /// The observation is of the wrong kind (lights when the centre was awaited, or the reverse).
@@ -90,6 +93,7 @@ impl fmt::Display for Error {
             }
             Error::ZeroLengthDv => write!(f, "zero-length dv: Jacobian update skipped"),
             Error::FineMoveBudget => write!(f, "a fixed budget of fine moves is at most 31"),
+            Error::UnsupportedLaw => write!(f, "this controller does not run that control law"),
             Error::UnexpectedObservation => {
                 write!(f, "observation received while none was awaited")
             }

@@ -18,14 +18,18 @@
 //! - [`config`]: every constant; [`Config::paper`] beside [`Config::project_default`].
 //! - [`presets`]: the named configurations every build (host, firmware) shares.
 //! - [`checkpoint`]: postcard checkpoints with a version and a CRC.
+//! - [`broyden`]: the classical alternative without training (uncalibrated visual servoing
+//!   with a Broyden Jacobian), selectable in place of the TRN ([`Law`]).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 // Index loops over the fixed small dimensions (D, M) read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod broyden;
 pub mod checkpoint;
 pub mod config;
+mod control;
 mod controller;
 mod error;
 pub mod net;
@@ -34,7 +38,8 @@ pub mod rank;
 pub mod rules;
 pub mod stage;
 
-pub use config::{Config, StageConfig};
+pub use config::{Config, Law, StageConfig};
+pub use control::Control;
 pub use controller::{
     Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, JOINTS, RANKS,
 };

@@ -214,18 +214,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     }
 
     pub(crate) fn check_input(&self, u: &[f32; D]) -> Result<()> {
-        for (i, &x) in u.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(Error::NonFiniteInput { index: i as u8 });
-            }
-            if x < self.cfg.input_min || x > self.cfg.input_max {
-                return Err(Error::InputOutOfRange {
-                    index: i as u8,
-                    value: x,
-                });
-            }
-        }
-        Ok(())
+        check_input(&self.cfg, u)
     }
 
     /// Starts a trial towards `target`.
@@ -474,6 +463,22 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         self.phase = Phase::Idle;
         StageStep::Done(self.trial.outcome)
     }
+}
+
+/// A target or observation as a stage accepts it: finite, within the configured range.
+pub fn check_input<const D: usize>(cfg: &StageConfig, u: &[f32; D]) -> Result<()> {
+    for (i, &x) in u.iter().enumerate() {
+        if !x.is_finite() {
+            return Err(Error::NonFiniteInput { index: i as u8 });
+        }
+        if x < cfg.input_min || x > cfg.input_max {
+            return Err(Error::InputOutOfRange {
+                index: i as u8,
+                value: x,
+            });
+        }
+    }
+    Ok(())
 }
 
 fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {

@@ -74,11 +74,12 @@ fn setup(ctrl: &mut Controller) {
     ctrl.init_random(SEED);
 }
 
-/// The seed of the initial tables: `trn train --bus slcan:qemu` must use the same `--seed`.
+/// The seed of the tables at reset. In a session over the bus (`pil`) the runner's
+/// `SessionConfig` sets the configuration and re-seeds the tables with its own seed.
 const SEED: u64 = 1;
 
-/// The configuration `trn` gives the host controller for the default simulator
-/// (`trn_controller::presets::configure`, the one source both builds use).
+/// The configuration at reset: the one `trn` gives the host controller for the default
+/// simulator (`trn_controller::presets::configure`, the one source both builds use).
 fn host_config() -> Config {
     presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT)
 }
@@ -331,6 +332,7 @@ fn bench(ctrl: &mut Controller) -> ! {
         }
     }
     let finite = ctrl.stage1().net().is_finite();
+    let broyden = bench_broyden(ctrl, &mut counter, &mut rng);
     let stack = count::stack_high_water_mark();
     hprintln!("trn-firmware bench (QEMU mps2-an386, Cortex-M4F, -icount shift=0)");
     hprintln!(
@@ -354,6 +356,7 @@ fn bench(ctrl: &mut Controller) -> ! {
     pressures.print("update pressures (derived: 1st observe - mean Jacobian - fine)");
     jacobians.print("update Jacobians (derived: later observes that move - mean Jacobian - fine)");
     plant_cost.print("synthetic plant, per call (between the calls, not in the step)");
+    broyden.print("broyden servo step (Broyden update + damped least squares, stage 1)");
     hprintln!("stack high-water mark: {} bytes", stack);
     hprintln!("tables finite after learning: {}", finite);
     if !finite {
@@ -361,6 +364,47 @@ fn bench(ctrl: &mut Controller) -> ! {
     }
     debug::exit(debug::EXIT_SUCCESS);
     loop {}
+}
+
+/// The Broyden servo baseline's stage-1 servo steps (`Law::Broyden`: one Broyden update and
+/// one damped-least-squares solve per observation), on the synthetic plant; the first trial
+/// measures its Jacobian (exploration, not counted). Restores the TRN configuration.
+#[cfg_attr(feature = "pil", allow(dead_code))]
+#[inline(never)]
+fn bench_broyden(ctrl: &mut Controller, counter: &mut count::Counter, rng: &mut u32) -> Stat {
+    let trn = *ctrl.config();
+    let cfg = Config {
+        law: trn_controller::Law::Broyden,
+        ..trn
+    };
+    if ctrl.set_config(cfg).is_err() {
+        fail("set_config broyden");
+    }
+    let mut steps = Stat::new();
+    for trial in 0..STEPS {
+        let p: [f32; 5] = core::array::from_fn(|_| pseudo_random(rng));
+        let target = plant(&p);
+        let task = Task::Stage1 {
+            v: target,
+            supervised: None,
+            learn: false,
+        };
+        let mut cmd = ctrl.begin_with(task, trn_controller::FineMoves::Exactly(8));
+        let mut calls = 0;
+        while let Ok(Command::Move { pressures, .. }) = cmd {
+            let seen = plant(&pressures);
+            let n = counter.measure(|| cmd = ctrl.observe(Observation::Lights(seen)));
+            calls += 1;
+            // the home move's observation and the exploration are not servo steps
+            if trial > 0 && calls > 1 {
+                steps.add(n);
+            }
+        }
+    }
+    if ctrl.set_config(trn).is_err() {
+        fail("set_config trn");
+    }
+    steps
 }
 
 fn fail(what: &str) -> ! {

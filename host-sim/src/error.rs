@@ -56,6 +56,14 @@ pub enum Error {
         /// The reasons, counted.
         reasons: String,
     },
+    /// The controller on the bus failed checks of the conformance suite.
+    #[error("{failed} of {checks} conformance checks failed")]
+    NotConformant {
+        /// Failed checks.
+        failed: usize,
+        /// Checks run.
+        checks: usize,
+    },
     /// Plotting.
     #[error("plot: {0}")]
     Plot(String),

@@ -13,6 +13,7 @@ mod error;
 pub mod experiment;
 pub mod nodes;
 pub mod plant;
+pub mod reference;
 pub mod transport;
 
 pub use error::{Error, Result};

@@ -33,6 +33,17 @@ pub const GRIPPER_TIMEOUT: u16 = 0x0108;
 /// nothing starts, the runner repeats both; detail = trial.
 pub const MISSING_SUPERVISION: u16 = 0x0109;
 
+/// A `SessionConfig` was refused; nothing changed (the previous configuration and tables stay);
+/// detail = one of the `CONFIG_*` reasons below.
+pub const CONFIG_REJECTED: u16 = 0x010A;
+/// `CONFIG_REJECTED` detail: not in `Idle`, or a trial is in progress.
+pub const CONFIG_NOT_IDLE: u32 = 1;
+/// `CONFIG_REJECTED` detail: `keep_tables`, but the controller's tables were learned under
+/// another configuration.
+pub const CONFIG_MISMATCH: u32 = 2;
+/// `CONFIG_REJECTED` detail: the controller refused the configuration (`set_config`).
+pub const CONFIG_INVALID: u32 = 3;
+
 /// A stable numeric code for each controller error (sent in `ErrorReport.detail`).
 pub fn controller_error_code(e: &CtrlError) -> u32 {
     match e {

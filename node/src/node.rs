@@ -4,13 +4,13 @@
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
 
-use trn_controller::{
-    Command, Controller, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task,
-};
+use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task};
+use trn_controller::{Config, Law};
 use trn_protocol as proto;
 use trn_protocol::{
-    CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode, ModeChange,
-    NodeId, NodeState, PointStatus, Reassembler, TrialReport,
+    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode,
+    ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig, TrialReport,
 };
 
 use crate::codes;
@@ -30,7 +30,8 @@ struct PendingGrasp {
 /// error and the abort).
 const FINAL: usize = 4;
 
-/// The controller as a CAN node. It does not own the [`Controller`] (firmware keeps that in
+/// The controller as a CAN node. It does not own the controller (any [`Control`]; firmware
+/// keeps the project's `trn_controller::Controller` in
 /// a `static`); every call borrows it.
 #[derive(Debug, Clone)]
 pub struct ControllerNode {
@@ -44,6 +45,10 @@ pub struct ControllerNode {
     heartbeat_due_ms: Option<u32>,
     heartbeat_counter: u8,
     idle_requested: bool,
+    /// The session configuration in force (the last one accepted).
+    session: Option<SessionConfig>,
+    /// A bus mode the encoder must switch to before the next frame is sent.
+    bus_mode: Option<BusMode>,
     /// The last trial that ended, and the messages that ended it.
     last_trial: Option<u32>,
     last_final: heapless::Vec<Envelope, FINAL>,
@@ -77,6 +82,8 @@ impl ControllerNode {
             heartbeat_due_ms: None,
             heartbeat_counter: 0,
             idle_requested: false,
+            session: None,
+            bus_mode: None,
             last_trial: None,
             last_final: heapless::Vec::new(),
             stats: NodeStats {
@@ -107,7 +114,7 @@ impl ControllerNode {
     }
 
     /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
-    pub fn poll(&mut self, ctrl: &mut Controller, now_ms: u32, out: &mut Outbox) {
+    pub fn poll<C: Control + ?Sized>(&mut self, ctrl: &mut C, now_ms: u32, out: &mut Outbox) {
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);
         if now_ms.wrapping_sub(due) < u32::MAX / 2 {
             let hb = Heartbeat {
@@ -142,9 +149,9 @@ impl ControllerNode {
     /// frame to send is passed to `tx`, encoded by `enc`. Frame errors (malformed, lost,
     /// corrupt segments) are returned after the frame is dropped.
     #[inline(never)]
-    pub fn on_frame<const SLOTS: usize>(
+    pub fn on_frame<const SLOTS: usize, C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         rx: &mut Reassembler<SLOTS>,
         enc: &mut Encoder,
         frame: &CanFrame,
@@ -155,6 +162,9 @@ impl ControllerNode {
         if let Some(env) = env {
             let mut out = Outbox::new();
             self.on_message(ctrl, &env, now_ms, &mut out);
+            if let Some(mode) = self.bus_mode.take() {
+                enc.set_mode(mode);
+            }
             send(enc, &out, tx)?;
         }
         Ok(())
@@ -162,9 +172,9 @@ impl ControllerNode {
 
     /// [`ControllerNode::poll`] with the output encoded and passed to `tx`.
     #[inline(never)]
-    pub fn poll_frames(
+    pub fn poll_frames<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         enc: &mut Encoder,
         now_ms: u32,
         tx: &mut impl FnMut(&CanFrame),
@@ -175,9 +185,9 @@ impl ControllerNode {
     }
 
     /// Handles one received message.
-    pub fn on_message(
+    pub fn on_message<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         env: &Envelope,
         now_ms: u32,
         out: &mut Outbox,
@@ -283,6 +293,7 @@ impl ControllerNode {
                 let echo = ModeChange { mode: self.mode };
                 push(out, NodeId::Broadcast, echo.into());
             }
+            (NodeId::Controller, Message::SessionConfig(c)) => self.on_session_config(ctrl, c, out),
             (_, Message::Emergency(_)) => {
                 if self.trial.is_some() {
                     self.abort(ctrl, out);
@@ -290,6 +301,62 @@ impl ControllerNode {
             }
             _ => self.stats.ignored += 1,
         }
+    }
+
+    /// Applies a session's run parameters (SPEC.md 3.2): in `Idle` with no trial in progress,
+    /// a new configuration and tables seeded from `seed` (or, with `keep_tables`, a check that
+    /// the tables held were learned under this configuration); acknowledged by the echo to
+    /// `Broadcast`. A repeat of the configuration in force is acknowledged again without
+    /// re-seeding. Not inlined: the `Config` built here stays out of the callers' frames.
+    #[inline(never)]
+    fn on_session_config<C: Control + ?Sized>(
+        &mut self,
+        ctrl: &mut C,
+        c: &SessionConfig,
+        out: &mut Outbox,
+    ) {
+        if self.session == Some(*c) {
+            push(out, NodeId::Broadcast, (*c).into());
+            return;
+        }
+        if self.mode != Mode::Idle || self.trial.is_some() {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_NOT_IDLE);
+        }
+        // the codes were range-checked on decode (`Message::validate`)
+        let (Some(preset), Some(ablation)) =
+            (Preset::from_code(c.preset), Ablation::from_code(c.ablation))
+        else {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+        };
+        let image = ImageSize {
+            width: c.image_width,
+            height: c.image_height,
+        };
+        let Some(law) = Law::from_code(c.law) else {
+            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+        };
+        let cfg = Config {
+            law,
+            ..presets::configure(preset, ablation, image)
+        };
+        if c.keep_tables {
+            if ctrl.config().fingerprint() != cfg.fingerprint() {
+                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_MISMATCH);
+            }
+        } else {
+            if ctrl.set_config(cfg).is_err() {
+                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+            }
+            ctrl.init_random(c.seed);
+        }
+        self.session = Some(*c);
+        self.bus_mode = Some(if c.fd { BusMode::Fd } else { BusMode::Classic });
+        push(out, NodeId::Broadcast, (*c).into());
+    }
+
+    /// The session configuration in force, if the runner sent one.
+    pub fn session(&self) -> Option<&SessionConfig> {
+        self.session.as_ref()
     }
 
     /// True (and handled) when `trial` is the trial in progress (ignored: it is being
@@ -327,9 +394,9 @@ impl ControllerNode {
         self.mode
     }
 
-    fn start(
+    fn start<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         trial: u32,
         task: Task,
         fine: FineMoves,
@@ -350,9 +417,9 @@ impl ControllerNode {
         }
     }
 
-    fn on_observation(
+    fn on_observation<C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         o: &proto::Observation,
         now_ms: u32,
         out: &mut Outbox,
@@ -433,7 +500,7 @@ impl ControllerNode {
         self.end_trial(out, from);
     }
 
-    fn reject(&mut self, ctrl: &mut Controller, e: CtrlError, out: &mut Outbox) {
+    fn reject<C: Control + ?Sized>(&mut self, ctrl: &mut C, e: CtrlError, out: &mut Outbox) {
         error(
             out,
             codes::CONTROLLER_ERROR,
@@ -444,7 +511,7 @@ impl ControllerNode {
 
     /// Ends the trial in progress without a result: the runner sees `TRIAL_ABORTED` with
     /// the trial number, after the report of the reason.
-    fn abort(&mut self, ctrl: &mut Controller, out: &mut Outbox) {
+    fn abort<C: Control + ?Sized>(&mut self, ctrl: &mut C, out: &mut Outbox) {
         ctrl.abort();
         let from = out.len().saturating_sub(1);
         let trial = self.trial.unwrap_or(0);

@@ -4,7 +4,7 @@
 //! and the clock differ.
 
 use embedded_can::nb::Can;
-use trn_controller::Controller;
+use trn_controller::Control;
 use trn_protocol::{CanFrame, Encoder, Reassembler};
 
 use crate::node::ControllerNode;
@@ -28,9 +28,9 @@ impl ControllerNode {
     /// timeouts), transmitting what they produce. Malformed, lost or corrupt frames are
     /// dropped and counted ([`crate::NodeStats::frame_errors`]); a transport error is
     /// returned.
-    pub fn service<P, const SLOTS: usize>(
+    pub fn service<P, const SLOTS: usize, C: Control + ?Sized>(
         &mut self,
-        ctrl: &mut Controller,
+        ctrl: &mut C,
         rx: &mut Reassembler<SLOTS>,
         enc: &mut Encoder,
         port: &mut P,

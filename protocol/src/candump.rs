@@ -148,7 +148,9 @@ pub fn format_line(timestamp_us: u64, iface: &str, frame: &CanFrame) -> Result<L
 mod io {
     use std::io::{BufRead, Write};
 
-    use super::{parse_line, write_line, Record};
+    #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
+    use super::parse_line;
+    use super::{write_line, Record};
     use crate::error::{Error, Result};
     use crate::frame::CanFrame;
 
@@ -192,7 +194,9 @@ mod io {
         }
     }
 
-    /// Reads every record of a log (blank lines skipped); stops at the first bad line.
+    /// Reads every record of a log (blank lines skipped); stops at the first bad line. With
+    /// the `socketcan` feature on Linux each line is parsed by the socketcan crate's
+    /// can-utils parser (`socketcan::dump`), otherwise by [`parse_line`].
     pub fn read_log<R: BufRead>(input: R) -> Result<Vec<Record>> {
         let mut out = Vec::new();
         for line in input.lines() {
@@ -200,9 +204,19 @@ mod io {
             if line.trim().is_empty() {
                 continue;
             }
-            out.push(parse_line(&line)?);
+            out.push(read_line(&line)?);
         }
         Ok(out)
+    }
+
+    #[cfg(all(feature = "socketcan", target_os = "linux"))]
+    fn read_line(line: &str) -> Result<Record> {
+        super::can_utils::parse(line)
+    }
+
+    #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
+    fn read_line(line: &str) -> Result<Record> {
+        parse_line(line)
     }
 
     /// Replays a log into a port (as fast as the port accepts), returning the number of
@@ -222,6 +236,44 @@ mod io {
 
 #[cfg(feature = "std")]
 pub use io::{read_log, replay, Recorder};
+
+/// can-utils logs through the socketcan crate's parser (`socketcan::dump`), which follows
+/// can-utils itself; frames the protocol does not use (extended ids, remote and error frames)
+/// are rejected. The hand-written [`parse_line`] stays for what that parser cannot serve:
+/// `no_std` builds (the fuzz target, a logger on the MCU) and hosts other than Linux (the
+/// socketcan crate builds on Linux only); a test checks that both read the same log alike.
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod can_utils {
+    use socketcan::dump::Reader;
+    use socketcan::{CanAnyFrame, EmbeddedFrame, Id};
+
+    use super::Record;
+    use crate::error::{Error, Result};
+    use crate::frame::CanFrame;
+
+    /// Parses one log line with `socketcan::dump`.
+    pub fn parse(line: &str) -> Result<Record> {
+        let rec = Reader::from_reader(line.as_bytes())
+            .next_record()
+            .map_err(|_| Error::CandumpSyntax)?
+            .ok_or(Error::CandumpSyntax)?;
+        let (id, data, fd) = match &rec.frame {
+            CanAnyFrame::Normal(f) => (f.id(), f.data(), false),
+            CanAnyFrame::Fd(f) => (f.id(), f.data(), true),
+            CanAnyFrame::Remote(_) | CanAnyFrame::Error(_) => return Err(Error::CandumpSyntax),
+        };
+        let Id::Standard(id) = id else {
+            return Err(Error::CandumpSyntax);
+        };
+        let iface =
+            heapless::String::try_from(rec.device.as_str()).map_err(|_| Error::CandumpSyntax)?;
+        Ok(Record {
+            timestamp_us: rec.t_us,
+            iface,
+            frame: CanFrame::new_checked(id.as_raw(), data, fd)?,
+        })
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -243,6 +295,30 @@ mod tests {
         assert_eq!(r.frame, f);
         assert_eq!(r.timestamp_us, 1_700_000_000_000_001);
         assert_eq!(r.iface.as_str(), "can0");
+    }
+
+    #[cfg(all(feature = "socketcan", target_os = "linux"))]
+    #[test]
+    fn socketcan_and_the_hand_written_parser_read_logs_alike() {
+        let good = [
+            "(1700000000.123456) vcan0 123#DEADBEEF",
+            "(0.000005) vcan0 7FF#",
+            "(1700000000.000001) can0 211##0ABABABABABABABABABABABAB",
+            "(1700000000.000002) can0 211##1ABABABABABABABABABABABAB",
+        ];
+        for l in good {
+            assert_eq!(can_utils::parse(l).unwrap(), parse_line(l).unwrap(), "{l}");
+        }
+        for bad in [
+            "(1.000000) vcan0 12345678#00",
+            "(1.000000) vcan0 123#R",
+            "(1.5) vcan0 123#00",
+            "(1.000000) vcan0",
+            "(1.000000) vcan0 123#001122334455667788",
+        ] {
+            assert!(can_utils::parse(bad).is_err(), "{bad}");
+            assert!(parse_line(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]

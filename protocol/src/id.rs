@@ -61,6 +61,8 @@ kinds! {
     Observation = 0x11, false;
     /// Change the operating mode (command; node = controller or broadcast).
     ModeChange = 0x18, true;
+    /// The session's run parameters (command; node = controller, or broadcast for the echo).
+    SessionConfig = 0x19, true;
     /// Supervised pressure announcement for a priming trial (command to the controller).
     SupervisedPressure = 0x20, true;
     /// Stage-1 target (8-D lights) for a new trial (command to the controller).
@@ -95,7 +97,9 @@ impl MessageKind {
             | K::Stage2Target
             | K::GraspRequest
             | K::TrialReport => matches!(node, NodeId::Controller),
-            K::ModeChange => matches!(node, NodeId::Controller | NodeId::Broadcast),
+            K::ModeChange | K::SessionConfig => {
+                matches!(node, NodeId::Controller | NodeId::Broadcast)
+            }
             K::Emergency | K::SafeStateEntered | K::ErrorReport | K::Heartbeat => {
                 !matches!(node, NodeId::Broadcast)
             }
@@ -154,8 +158,9 @@ mod tests {
                 valid += 1;
             }
         }
-        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 5 + mode 2 + any-node 4 x 9
-        assert_eq!(valid, 10 + 2 + 2 + 5 + 2 + 4 * 9);
+        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 5 + mode and session
+        // config 2 x 2 + any-node 4 x 9
+        assert_eq!(valid, 10 + 2 + 2 + 5 + 2 * 2 + 4 * 9);
         assert_eq!(CanId::from_raw(0x800), Err(Error::InvalidId(0x800)));
     }
 

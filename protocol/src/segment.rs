@@ -142,6 +142,12 @@ impl Encoder {
         }
     }
 
+    /// Switches the bus mode for the messages encoded from now on (the transfer id goes on
+    /// counting).
+    pub fn set_mode(&mut self, mode: BusMode) {
+        self.mode = mode;
+    }
+
     /// The bus mode.
     pub const fn mode(&self) -> BusMode {
         self.mode

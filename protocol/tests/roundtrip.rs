@@ -196,6 +196,7 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::CaptureRequest, 3),
         (MessageKind::Observation, 39),
         (MessageKind::ModeChange, 1),
+        (MessageKind::SessionConfig, 17),
         (MessageKind::SupervisedPressure, 24),
         (MessageKind::Stage1Target, 39),
         (MessageKind::Stage2Target, 23),

@@ -58,6 +58,9 @@ printf '%-58s %10s\n' "stage-1 learning step, mean" "$learn_mean"
 check "stage-1 control step, mean" "$control_mean" 60000 instructions
 printf '%-58s %10s\n' "stage-1 control step (rank + coarse), max" "$control_max"
 printf '%-58s %10s\n' "thumbv6m-none-eabi: static RAM / flash (bytes, not run)" "$ram6 / $flash6"
+broyden=$(echo "$out" | sed -n 's/^phase broyden servo step.*: mean \([0-9]*\) max \([0-9]*\) instructions$/\1 \/ \2/p')
+printf '%-58s %10s\n' "Broyden servo baseline: stage-1 servo step, mean / max" "${broyden:-missing}"
+[ -n "$broyden" ] || { echo "budget: FAIL: no Broyden figures" >&2; fail=1; }
 echo
 printf '%-90s %8s %8s\n' "stage-1 phase (instructions)" "mean" "max"
 echo "$out" | sed -n 's/^phase \(.*\): mean \([0-9]*\) max \([0-9]*\) instructions$/\1\t\2\t\3/p' |

@@ -3,7 +3,10 @@
 # CAN frames as SLCAN over UART0) for N trials, and the same run with the host build of the
 # controller on the in-process bus; the learning curves must match within f32 tolerance
 # (the largest difference is printed; bit-identical is what is expected: the same Rust code,
-# IEEE-754 single precision on both, software libm on both).
+# IEEE-754 single precision on both, software libm on both). The firmware takes its run
+# parameters from the bus (`SessionConfig`), so one firmware image runs every case:
+# seed 1 project preset on CAN 2.0, seed 100 paper preset on CAN 2.0, seed 101 project
+# preset on CAN FD; then the conformance suite against the firmware.
 #   scripts/cross/pil.sh [TRIALS]      scripts/cross/pil.sh --build-only
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
@@ -15,15 +18,19 @@ out="$root/out/pil"
 mkdir -p "$out"
 cd "$root"
 cargo build --quiet --release -p trn-sim --bin trn
-args=(train --seed 1 --trials "$trials" --eval-targets 5 --grasps 3 --quiet)
-start=$SECONDS
-TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn "${args[@]}" --bus slcan:qemu --report "$out/firmware.json" > "$out/firmware.txt"
-pil_s=$((SECONDS - start))
-./target/release/trn "${args[@]}" --bus inproc --report "$out/host.json" > "$out/host.txt"
-stack=$(sed -n 's/^trn-firmware pil: stack high-water mark: \([0-9]*\) bytes/\1/p' "$out/firmware.txt")
-echo "pil: firmware stack high-water mark ${stack:-unknown} bytes (limit 8192)"
-[ -n "$stack" ] && [ "$stack" -le 8192 ] || { echo "pil: FAIL: stack high-water mark" >&2; exit 1; }
-python3 - "$out/firmware.json" "$out/host.json" "$trials" "$pil_s" <<'PY'
+status=0
+for case in "1 project" "100 paper" "101 project --fd"; do
+    read -r seed preset fd <<< "$case"
+    name="seed$seed-$preset${fd:+-fd}"
+    args=(train --seed "$seed" --preset "$preset" ${fd:+"$fd"} --trials "$trials" --eval-targets 5 --grasps 3 --quiet)
+    start=$SECONDS
+    TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn "${args[@]}" --bus slcan:qemu --report "$out/$name-firmware.json" > "$out/$name-firmware.txt"
+    pil_s=$((SECONDS - start))
+    ./target/release/trn "${args[@]}" --bus inproc --report "$out/$name-host.json" > "$out/$name-host.txt"
+    stack=$(sed -n 's/^trn-firmware pil: stack high-water mark: \([0-9]*\) bytes/\1/p' "$out/$name-firmware.txt")
+    echo "pil $name: firmware stack high-water mark ${stack:-unknown} bytes (limit 8192)"
+    [ -n "$stack" ] && [ "$stack" -le 8192 ] || { echo "pil $name: FAIL: stack high-water mark" >&2; status=1; }
+    python3 - "$out/$name-firmware.json" "$out/$name-host.json" "$trials" "$pil_s" "$name" <<'PY' || status=1
 import json, sys
 a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
 worst, ok = 0.0, True
@@ -38,8 +45,18 @@ for key in ["stage1_error_px", "stage2_error_px", "combined_error_px", "fine_mov
     if d > tol:
         print(f"FAIL {key}: largest difference {d} > {tol}"); ok = False
 same = all(a[k] == b[k] for k in ["stage1_error_px", "stage2_error_px", "combined_error_px"])
-print(f"pil: {sys.argv[3]} trials per network on the firmware in QEMU ({sys.argv[4]} s) against the host build: "
+print(f"pil {sys.argv[5]}: {sys.argv[3]} trials per network on the firmware in QEMU ({sys.argv[4]} s) against the host build: "
       f"largest curve difference {worst} ({'bit-identical' if same else 'within f32 tolerance'}); "
       f"final error {a['final_error_px']:.4f} px firmware, {b['final_error_px']:.4f} px host")
 sys.exit(0 if ok else 1)
 PY
+done
+# the conformance suite against the firmware (protocol/SPEC.md 3, 3.2), over the same SLCAN link
+TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 100 > "$out/conformance.txt" || status=1
+echo "pil conformance (firmware in QEMU): $(tail -n 1 "$out/conformance.txt")"
+# the Broyden servo baseline on the same firmware image (SessionConfig law 1)
+TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 101 --controller broyden > "$out/conformance-broyden.txt" || status=1
+echo "pil conformance, Broyden servo (firmware in QEMU): $(tail -n 1 "$out/conformance-broyden.txt")"
+grep FAIL -A 1 "$out/conformance-broyden.txt" || true
+grep FAIL -A 1 "$out/conformance.txt" || true
+exit $status

@@ -5,7 +5,7 @@
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use trn_sim::experiment::cli::{Ablation, Preset};
+use trn_sim::experiment::cli::{Ablation, Controller, Preset};
 
 /// The TRN controller node on SocketCAN.
 #[derive(Debug, Parser)]
@@ -23,6 +23,9 @@ struct Args {
     /// Ablation.
     #[arg(long, value_enum, default_value_t = Ablation::None)]
     ablation: Ablation,
+    /// Control law.
+    #[arg(long, value_enum, default_value_t = Controller::Trn)]
+    controller: Controller,
     /// Simulator configuration (for the camera image size the initial weights span).
     #[arg(long)]
     config: Option<PathBuf>,
@@ -47,9 +50,11 @@ fn run(a: &Args) -> Result<(), String> {
     use trn_sim::transport::controller_loop;
     let sim = load_sim_config(a.config.as_deref()).map_err(|e| e.to_string())?;
     let provenance = trn_controller::checkpoint::Provenance::of(a.preset.into(), a.ablation.into());
-    let mut ctrl = Box::new(trn_controller::Controller::new(controller_config(
-        a.preset, a.ablation, &sim,
-    )));
+    let cfg = trn_controller::Config {
+        law: a.controller.into(),
+        ..controller_config(a.preset, a.ablation, &sim)
+    };
+    let mut ctrl = Box::new(trn_controller::Controller::new(cfg));
     ctrl.init_random(a.seed);
     if let Some(p) = &a.checkpoint_in {
         checkpoint_file::load(&mut ctrl, p, provenance, a.allow_config_change)

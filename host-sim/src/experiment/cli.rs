@@ -24,6 +24,18 @@ pub enum Cmd {
     Grasp(EvalArgs),
     /// Run the paper/project presets and the ablations over several seeds (README table).
     Compare(CompareArgs),
+    /// The conformance suite (protocol/SPEC.md): drives the controller on the bus (the
+    /// project's node, or with --external-controller whatever controller is on the bus)
+    /// through every trial sequence and checks its answers; fails if any check fails.
+    Conformance(ConformanceArgs),
+}
+
+/// `trn conformance`.
+#[derive(Debug, Args, Clone)]
+pub struct ConformanceArgs {
+    /// Shared options (the bus, the preset and seed sent in the `SessionConfig`).
+    #[command(flatten)]
+    pub common: Common,
 }
 
 /// Controller presets.
@@ -35,6 +47,29 @@ pub enum Preset {
     Paper,
     /// The project's defaults with a floor on the rates (life-long learning).
     Lifelong,
+}
+
+/// The control law (`--controller`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Controller {
+    /// The topology representing network (the chapter's method).
+    Trn,
+    /// Uncalibrated visual servoing with a Broyden Jacobian (no training): the classical
+    /// alternative, for comparison.
+    Broyden,
+    /// The simulator's nominal inverse kinematics: a perfectly calibrated model-based
+    /// controller without hysteresis compensation (a reference; in process only).
+    Model,
+}
+
+impl From<Controller> for trn_controller::Law {
+    fn from(c: Controller) -> Self {
+        match c {
+            Controller::Trn => Self::Trn,
+            Controller::Broyden => Self::Broyden,
+            Controller::Model => Self::Model,
+        }
+    }
 }
 
 /// Ablations of the method.
@@ -102,14 +137,15 @@ pub struct Common {
     /// README reports seeds from 100 up.
     #[arg(long, default_value_t = 100)]
     pub seed: u64,
-    /// Simulator configuration (TOML); the built-in defaults when absent.
+    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
+    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
     /// separate `controller-node` process on IFACE: vcan0 or a real adapter) or `slcan:qemu`
     /// (the firmware in QEMU, CAN frames as SLCAN over its UART; build it first with
-    /// `bash scripts/cross/pil.sh --build-only`; it runs the project preset seeded with 1 on
-    /// CAN 2.0).
+    /// `bash scripts/cross/pil.sh --build-only`; it takes seed, preset, ablation and CAN mode
+    /// from the session's `SessionConfig`).
     #[arg(long, default_value = "inproc")]
     pub bus: String,
     /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a
@@ -125,6 +161,9 @@ pub struct Common {
     /// Ablation.
     #[arg(long, value_enum, default_value_t = Ablation::None)]
     pub ablation: Ablation,
+    /// The control law: the TRN, or the Broyden servo baseline (which does not train).
+    #[arg(long, value_enum, default_value_t = Controller::Trn)]
+    pub controller: Controller,
     /// Held-out targets per network in the evaluation.
     #[arg(long, default_value_t = 100)]
     pub eval_targets: usize,
@@ -177,6 +216,7 @@ impl Common {
             fd: false,
             preset,
             ablation,
+            controller: Controller::Trn,
             eval_targets: 100,
             grasps: 50,
             fine_moves: 6,
@@ -247,7 +287,8 @@ pub struct CompareArgs {
     /// Only the project preset (the test suite's band check).
     #[arg(long)]
     pub project_only: bool,
-    /// Simulator configuration (TOML); the built-in defaults when absent.
+    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
+    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Write every seed's figures as JSON here.

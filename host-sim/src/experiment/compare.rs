@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::cli::{Ablation, Common, CompareArgs, Preset};
+use super::cli::{Ablation, Common, CompareArgs, Controller, Preset};
 use super::report::{mean, Report};
 use super::run::run_plan;
 use super::schedule::Plan;
@@ -37,6 +37,8 @@ pub struct SeedFigures {
     pub failed_trials: usize,
     /// Coarse-move error at the first and the last snapshot (combined, noise-free).
     pub snapshot_coarse_px: (f32, f32),
+    /// Training trials per network before the evaluation.
+    pub training_trials: usize,
     /// Wall time (s).
     pub wall_s: f64,
 }
@@ -62,6 +64,7 @@ impl SeedFigures {
                 coarse(r.learning_curve.first()),
                 coarse(r.learning_curve.last()),
             ),
+            training_trials: r.trials,
             wall_s: r.wall_s,
         }
     }
@@ -93,38 +96,90 @@ fn ms(x: &[f32]) -> String {
     format!("{} ± {}", px(m), px(s))
 }
 
+/// One configuration of the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Entry {
+    /// Controller preset.
+    pub preset: Preset,
+    /// Ablation.
+    pub ablation: Ablation,
+    /// Control law.
+    pub controller: Controller,
+}
+
+impl Entry {
+    const fn trn(preset: Preset, ablation: Ablation) -> Entry {
+        Entry {
+            preset,
+            ablation,
+            controller: Controller::Trn,
+        }
+    }
+
+    /// Its name in the table.
+    pub fn name(&self) -> String {
+        match (self.controller, self.ablation) {
+            (Controller::Broyden, _) => "Broyden servo (no training)".to_string(),
+            (Controller::Model, _) => {
+                "nominal inverse kinematics (calibrated model, no learning)".to_string()
+            }
+            (_, Ablation::None) => self.preset.name().to_string(),
+            (_, Ablation::NoNeighbourhood) => {
+                format!("{}, no-neighbourhood (plain VQ table)", self.preset.name())
+            }
+            (_, a) => format!("{}, {}", self.preset.name(), a.name()),
+        }
+    }
+
+    /// Training trials per network: none for a method that does not train.
+    pub fn trials(&self, trials: usize) -> usize {
+        match self.controller {
+            Controller::Broyden | Controller::Model => 0,
+            Controller::Trn => trials,
+        }
+    }
+}
+
 /// The configurations of the table.
-pub const CONFIGS: [(Preset, Ablation); 5] = [
-    (Preset::Project, Ablation::None),
-    (Preset::Paper, Ablation::None),
-    (Preset::Project, Ablation::NoNeighbourhood),
-    (Preset::Project, Ablation::NoPriming),
-    (Preset::Project, Ablation::NoFine),
+pub const CONFIGS: [Entry; 7] = [
+    Entry::trn(Preset::Project, Ablation::None),
+    Entry::trn(Preset::Paper, Ablation::None),
+    Entry::trn(Preset::Project, Ablation::NoNeighbourhood),
+    Entry::trn(Preset::Project, Ablation::NoPriming),
+    Entry::trn(Preset::Project, Ablation::NoFine),
+    Entry {
+        preset: Preset::Project,
+        ablation: Ablation::None,
+        controller: Controller::Broyden,
+    },
+    Entry {
+        preset: Preset::Project,
+        ablation: Ablation::None,
+        controller: Controller::Model,
+    },
 ];
 
 /// Runs every configuration over seeds 100.. and prints a markdown table.
 pub fn run(a: &CompareArgs) -> Result<()> {
-    let configs: Vec<(Preset, Ablation)> = if a.project_only {
+    let configs: Vec<Entry> = if a.project_only {
         vec![CONFIGS[0]]
     } else {
         CONFIGS.to_vec()
     };
     let mut rows = vec![];
-    for (preset, ablation) in configs {
-        let name = match ablation {
-            Ablation::None => preset.name().to_string(),
-            a => format!("{}, {}", preset.name(), a.name()),
-        };
+    for entry in configs {
         let mut row = Row {
-            name,
+            name: entry.name(),
             seeds: vec![],
         };
         for seed in FIRST_REPORTED_SEED..FIRST_REPORTED_SEED + a.seeds {
             let common = Common {
                 config: a.config.clone(),
-                ..Common::inproc(seed, preset, ablation)
+                controller: entry.controller,
+                ..Common::inproc(seed, entry.preset, entry.ablation)
             };
-            let r = run_plan(&common, Plan::new(a.trials, 100, 50), None, None, "compare")?;
+            let plan = Plan::new(entry.trials(a.trials), 100, 50);
+            let r = run_plan(&common, plan, None, None, "compare")?;
             let f = SeedFigures::of(seed, &r);
             eprintln!(
                 "{} seed {seed}: combined true after coarse + 2 fine {} px, after 6 {} px, wall {:.1} s",
@@ -150,16 +205,17 @@ pub fn run(a: &CompareArgs) -> Result<()> {
 
 /// The markdown table of `rows` (mean ± standard deviation over the seeds).
 pub fn print_table(rows: &[Row]) {
-    println!("| configuration | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | grasp success % | failed trials |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| configuration | training trials | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | grasp success % | failed trials |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let col = |f: &dyn Fn(&SeedFigures) -> f32| -> Vec<f32> { r.seeds.iter().map(f).collect() };
         let at = |m: usize| col(&|s| s.combined_true_px.get(m).copied().unwrap_or(f32::NAN));
         let last = col(&|s| s.combined_measured_px.last().copied().unwrap_or(f32::NAN));
         let floor = col(&|s| s.noise_floor_px);
         println!(
-            "| {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
             r.name,
+            r.seeds.first().map_or(0, |s| s.training_trials),
             ms(&at(0)),
             ms(&at(1)),
             ms(&at(2)),

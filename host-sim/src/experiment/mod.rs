@@ -10,6 +10,7 @@
 pub mod checkpoint_file;
 pub mod cli;
 pub mod compare;
+pub mod conformance;
 pub mod metrics;
 #[cfg(feature = "plot")]
 pub mod plot;

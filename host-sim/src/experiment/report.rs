@@ -223,6 +223,9 @@ pub struct Report {
     pub evaluation_trials: usize,
     /// Retries, timeouts and give-ups on both sides, and the injected faults.
     pub bus_stats: BusReport,
+    /// The conformance suite's checks (`trn conformance`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub conformance: Vec<super::conformance::Check>,
 }
 
 impl Report {

@@ -55,6 +55,8 @@ pub struct Rig<P> {
     /// When the controller was last heard (any frame).
     heard: Instant,
     stats: RigStats,
+    /// Every message received, in order, while journaling (the conformance suite).
+    journal: Option<Vec<Envelope>>,
 }
 
 impl<P> Rig<P>
@@ -76,6 +78,7 @@ where
             start,
             heard: start,
             stats: RigStats::default(),
+            journal: None,
         }
     }
 
@@ -92,6 +95,27 @@ where
     /// The gripper node.
     pub fn gripper_mut(&mut self) -> &mut Gripper {
         &mut self.gripper
+    }
+
+    /// The camera processor node.
+    pub fn camera_mut(&mut self) -> &mut CameraProcessor {
+        &mut self.camera
+    }
+
+    /// Starts keeping every received message (the controller's commands to the plant nodes,
+    /// its reports, errors, echoes and heartbeats) in a journal.
+    pub fn start_journal(&mut self) {
+        self.journal = Some(Vec::new());
+    }
+
+    /// The journal so far.
+    pub fn journal(&self) -> &[Envelope] {
+        self.journal.as_deref().unwrap_or(&[])
+    }
+
+    /// Takes the journal, starting a new one.
+    pub fn take_journal(&mut self) -> Vec<Envelope> {
+        self.journal.replace(Vec::new()).unwrap_or_default()
     }
 
     /// True when servo drive `joint` is in its safe state.
@@ -169,6 +193,9 @@ where
                     continue;
                 }
             };
+            if let Some(j) = &mut self.journal {
+                j.push(env);
+            }
             if env.msg.kind().is_command() || env.node == NodeId::Controller {
                 // commands come from the controller (the runner's own do not come back)
                 self.heard = Instant::now();

@@ -8,12 +8,13 @@ use std::time::{Duration, Instant};
 use embedded_can::blocking::Can;
 use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, ImageSize};
-use trn_controller::{Config, Controller};
+use trn_controller::{Config, Controller, Law};
 use trn_protocol::bus::{InProcBus, ReceiveTimeout, RecordingPort};
-use trn_protocol::{BusMode, CanFrame};
+use trn_protocol::{BusMode, CanFrame, SessionConfig};
 
 use super::checkpoint_file;
-use super::cli::{Ablation, Common, Preset};
+use super::cli::{self, Ablation, Common, Preset};
+use super::conformance::{self, Patience};
 use super::metrics;
 use super::report::Report;
 use super::rig::Rig;
@@ -22,6 +23,7 @@ use super::schedule;
 pub use super::schedule::Plan;
 use crate::error::{io, Error, Result};
 use crate::plant::{Plant, SimConfig};
+use crate::reference::NominalIk;
 use crate::transport::controller_loop::{ControllerThread, LoopStats};
 use crate::transport::peer::{self, Peer};
 use crate::transport::{slcan_qemu, slcan_serial, BusSpec};
@@ -36,11 +38,38 @@ pub fn controller_config(preset: Preset, ablation: Ablation, sim: &SimConfig) ->
     presets::configure(preset.into(), ablation.into(), image)
 }
 
-/// Loads the simulator configuration (defaults when no file is given).
+/// The run parameters of a session for the controller (`SessionConfig`, SPEC.md 3.2).
+pub fn session_config(common: &Common, sim: &SimConfig, keep_tables: bool) -> SessionConfig {
+    let (w, h) = sim.image_size();
+    SessionConfig {
+        seed: common.seed,
+        preset: trn_controller::presets::Preset::from(common.preset) as u8,
+        ablation: trn_controller::presets::Ablation::from(common.ablation) as u8,
+        image_width: w.min(u16::MAX as u32) as u16,
+        image_height: h.min(u16::MAX as u32) as u16,
+        fd: common.fd,
+        keep_tables,
+        law: trn_controller::Law::from(common.controller) as u8,
+    }
+}
+
+/// The controller configuration of a run's options: preset, ablation, control law.
+pub fn common_config(common: &Common, sim: &SimConfig) -> Config {
+    Config {
+        law: common.controller.into(),
+        ..controller_config(common.preset, common.ablation, sim)
+    }
+}
+
+/// Loads the simulator configuration: the built-in default when none is given, a built-in
+/// one by name (`ideal`, `realistic`) unless a file of that name exists, else the file.
 pub fn load_sim_config(path: Option<&Path>) -> Result<SimConfig> {
     match path {
         None => Ok(SimConfig::default()),
-        Some(p) => SimConfig::load(p),
+        Some(p) => match p.to_str().and_then(SimConfig::named) {
+            Some(c) if !p.exists() => Ok(c),
+            _ => SimConfig::load(p),
+        },
     }
 }
 
@@ -53,7 +82,7 @@ pub fn run_plan(
     command: &str,
 ) -> Result<Report> {
     let sim_cfg = load_sim_config(common.config.as_deref())?;
-    let cfg = controller_config(common.preset, common.ablation, &sim_cfg);
+    let cfg = common_config(common, &sim_cfg);
     run_plan_with(common, plan, cfg, checkpoint_in, checkpoint_out, command)
 }
 
@@ -66,6 +95,39 @@ pub fn run_plan_with(
     checkpoint_in: Option<&Path>,
     checkpoint_out: Option<&Path>,
     command: &str,
+) -> Result<Report> {
+    run_job(
+        common,
+        plan,
+        cfg,
+        (checkpoint_in, checkpoint_out),
+        command,
+        false,
+    )
+}
+
+/// `trn conformance`: the conformance suite against the controller on the bus (the
+/// project's node unless `--external-controller`); the checks are in the report.
+pub fn run_conformance(common: &Common) -> Result<Report> {
+    let sim_cfg = load_sim_config(common.config.as_deref())?;
+    let cfg = common_config(common, &sim_cfg);
+    run_job(
+        common,
+        Plan::new(0, 0, 0),
+        cfg,
+        (None, None),
+        "conformance",
+        true,
+    )
+}
+
+fn run_job(
+    common: &Common,
+    plan: Plan,
+    cfg: Config,
+    (checkpoint_in, checkpoint_out): (Option<&Path>, Option<&Path>),
+    command: &str,
+    conformance: bool,
 ) -> Result<Report> {
     let started = Instant::now();
     let sim_cfg = load_sim_config(common.config.as_deref())?;
@@ -90,6 +152,25 @@ pub fn run_plan_with(
             msg: "--faults injects faults on the in-process bus only".into(),
         });
     }
+    if cfg.law == Law::Model
+        && (bus != BusSpec::InProc || checkpoint_in.is_some() || checkpoint_out.is_some())
+    {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "the model-based reference (--controller model) carries the simulator's model: in process only, no checkpoints".into(),
+        });
+    }
+    if bus == BusSpec::SlcanQemu && (checkpoint_in.is_some() || checkpoint_out.is_some()) {
+        return Err(Error::BusOpen {
+            bus: common.bus.clone(),
+            msg: "the firmware keeps its tables in RAM: no --checkpoint-in/--checkpoint-out".into(),
+        });
+    }
+    // the run parameters go to the controller over the bus; a tuning configuration that no
+    // preset describes is given to the in-process controller directly instead
+    let keep_tables = checkpoint_in.is_some() || (common.external_controller && plan.trials == 0);
+    let session = (common_config(common, &sim_cfg).fingerprint() == cfg.fingerprint())
+        .then(|| session_config(common, &sim_cfg, keep_tables));
     let provenance = Provenance::of(common.preset.into(), common.ablation.into());
     // every output must be writable before the run starts, not fail after it
     for p in [
@@ -105,9 +186,11 @@ pub fn run_plan_with(
     }
     let mut report = Report {
         command: command.to_string(),
-        preset: match common.ablation {
-            Ablation::None => common.preset.name().to_string(),
-            a => format!("{}+{}", common.preset.name(), a.name().replace('-', "")),
+        preset: match (common.controller, common.ablation) {
+            (cli::Controller::Broyden, _) => "broyden".to_string(),
+            (cli::Controller::Model, _) => "model".to_string(),
+            (_, Ablation::None) => common.preset.name().to_string(),
+            (_, a) => format!("{}+{}", common.preset.name(), a.name().replace('-', "")),
         },
         trials: plan.trials,
         seed: common.seed,
@@ -121,6 +204,8 @@ pub fn run_plan_with(
     let setup = Setup {
         common,
         plan,
+        session,
+        conformance,
         cfg: &cfg,
         mode,
         bus: &bus,
@@ -131,12 +216,18 @@ pub fn run_plan_with(
             if let Some(f) = common.faults {
                 inproc.set_faults(f);
             }
-            let mut ctrl = Box::new(Controller::new(cfg));
-            ctrl.init_random(common.seed);
-            if let Some(p) = checkpoint_in {
-                checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
-            }
-            let peer = Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode));
+            let peer = if cfg.law == Law::Model {
+                // the model-based reference: the simulator's own model, in process only
+                let reference = Box::new(NominalIk::new(&sim_cfg, cfg)?);
+                Peer::Reference(ControllerThread::spawn(inproc.port(), reference, mode))
+            } else {
+                let mut ctrl = Box::new(Controller::new(cfg));
+                ctrl.init_random(common.seed);
+                if let Some(p) = checkpoint_in {
+                    checkpoint_file::load(&mut ctrl, p, provenance, common.allow_config_change)?;
+                }
+                Peer::Thread(ControllerThread::spawn(inproc.port(), ctrl, mode))
+            };
             let done = setup.drive(inproc.port(), plant, peer, &mut report)?;
             let s = inproc.stats();
             report.bus_stats.injected = Some(counts([
@@ -151,17 +242,8 @@ pub fn run_plan_with(
             done
         }
         BusSpec::SlcanQemu => {
-            // processor-in-the-loop: the controller is the firmware in QEMU, seeded with 1 and
-            // configured as the host's project preset (firmware/src/main.rs)
-            if common.seed != 1
-                || common.preset != Preset::Project
-                || common.ablation != Ablation::None
-                || common.fd
-            {
-                return Err(bus_err(
-                    "the firmware runs the project preset seeded with 1 on CAN 2.0: use --seed 1, no --preset/--ablation/--fd".into(),
-                ));
-            }
+            // processor-in-the-loop: the controller is the firmware in QEMU, configured and
+            // seeded by the session's `SessionConfig` like any other controller
             let (port, child) = slcan_qemu::SlcanPort::spawn_qemu(
                 &slcan_qemu::qemu_arm(),
                 &slcan_qemu::firmware_elf(),
@@ -191,6 +273,7 @@ pub fn run_plan_with(
                         seed: common.seed,
                         preset: common.preset.name(),
                         ablation: common.ablation.name(),
+                        controller: trn_controller::Law::from(common.controller).name(),
                         config: common.config.as_deref(),
                         fd: common.fd,
                         checkpoint_in,
@@ -256,6 +339,10 @@ fn write_outputs(common: &Common, report: &Report) -> Result<()> {
 struct Setup<'a> {
     common: &'a Common,
     plan: Plan,
+    /// The run parameters sent to the controller first (none for a tuning configuration).
+    session: Option<SessionConfig>,
+    /// Run the conformance suite instead of the plan.
+    conformance: bool,
     cfg: &'a Config,
     mode: BusMode,
     bus: &'a BusSpec,
@@ -313,6 +400,33 @@ impl Setup<'_> {
             ..Timing::new(reply, silence)
         };
         let mut runner = Runner::new(rig, self.common.seed, timing);
+        if self.conformance {
+            let session = self.session.ok_or_else(|| Error::BusOpen {
+                bus: self.common.bus.clone(),
+                msg: "the conformance suite needs a preset configuration".into(),
+            })?;
+            let patience = match self.bus {
+                BusSpec::SlcanQemu => Patience {
+                    answer: Duration::from_secs(120),
+                    quiet: Duration::from_secs(5),
+                },
+                BusSpec::SocketCan(_) | BusSpec::SlcanSerial(_) => Patience {
+                    answer: Duration::from_secs(20),
+                    quiet: Duration::from_millis(600),
+                },
+                BusSpec::InProc => Patience {
+                    answer: Duration::from_secs(10),
+                    quiet: Duration::from_millis(150),
+                },
+            };
+            let checks = conformance::run(&mut runner, session, patience);
+            report.bus_stats.runner = runner.stats();
+            report.conformance = checks?;
+            return Ok(());
+        }
+        if let Some(s) = self.session {
+            runner.configure(s)?;
+        }
         let log = schedule::run(
             &mut runner,
             self.plan,

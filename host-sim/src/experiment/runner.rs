@@ -9,8 +9,8 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use trn_node::codes;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, GraspRequest, Message, Mode, ModeChange, NodeId, Stage1Target, Stage2Target,
-    SupervisedPressure, FINE_MOVES_POLICY,
+    CanFrame, GraspRequest, Message, Mode, ModeChange, NodeId, SessionConfig, Stage1Target,
+    Stage2Target, SupervisedPressure, FINE_MOVES_POLICY,
 };
 
 use super::records::{Phase, TrialKind, TrialRecord};
@@ -84,7 +84,7 @@ impl Timing {
 pub struct RunnerStats {
     /// Trial starts sent again after no answer.
     pub target_repeats: u32,
-    /// Mode changes sent again after no acknowledgement.
+    /// Mode changes and session configurations sent again after no acknowledgement.
     pub mode_repeats: u32,
     /// Trials given up after every repeat.
     pub given_up: u32,
@@ -107,6 +107,11 @@ where
         }
     }
 
+    /// The runner's patience.
+    pub fn timing(&self) -> Timing {
+        self.timing
+    }
+
     /// The rig.
     pub fn rig(&self) -> &Rig<P> {
         &self.rig
@@ -120,7 +125,29 @@ where
     /// Announces a mode (`Priming`, `Training`, `Mature`, `Idle`) and waits for the
     /// controller's acknowledgement (the echo to every node), repeating it when none comes.
     pub fn mode(&mut self, mode: Mode) -> Result<()> {
-        let msg: Message = ModeChange { mode }.into();
+        self.acknowledged(ModeChange { mode }.into(), &format!("mode {mode:?}"))
+    }
+
+    /// Sends the session's run parameters (seed, preset, ablation, image size, bus mode;
+    /// SPEC.md 3.2) and waits for the controller's acknowledgement. A controller that refuses
+    /// them (`CONFIG_REJECTED`) ends the run with its reason.
+    pub fn configure(&mut self, session: SessionConfig) -> Result<()> {
+        self.acknowledged(session.into(), "the session configuration")
+    }
+
+    /// Sends `msg` to the controller until the controller echoes it to `Broadcast`.
+    fn acknowledged(&mut self, msg: Message, what: &str) -> Result<()> {
+        let refused = |detail: u32| Error::BusOpen {
+            bus: "runner".into(),
+            msg: format!(
+                "the controller refused {what}: {}",
+                match detail {
+                    codes::CONFIG_NOT_IDLE => "not idle",
+                    codes::CONFIG_MISMATCH => "its tables were learned under another configuration",
+                    _ => "invalid configuration",
+                }
+            ),
+        };
         for _ in 0..=self.timing.retries {
             self.rig.send(NodeId::Controller, msg)?;
             let since = Instant::now();
@@ -128,8 +155,12 @@ where
                 let wait = self.timing.reply.saturating_sub(since.elapsed());
                 match self.rig.next_event(wait, self.timing.silence)? {
                     None => break,
-                    Some(Event::Controller(Message::ModeChange(m))) if m.mode == mode => {
-                        return Ok(())
+                    Some(Event::Controller(m)) if m == msg => return Ok(()),
+                    Some(Event::Controller(Message::ErrorReport(e)))
+                        if e.code == codes::CONFIG_REJECTED
+                            && matches!(msg, Message::SessionConfig(_)) =>
+                    {
+                        return Err(refused(e.detail))
                     }
                     Some(_) => {}
                 }
@@ -139,7 +170,7 @@ where
         Err(Error::BusOpen {
             bus: "runner".into(),
             msg: format!(
-                "the controller did not acknowledge mode {mode:?} after {} tries",
+                "the controller did not acknowledge {what} after {} tries",
                 self.timing.retries + 1
             ),
         })

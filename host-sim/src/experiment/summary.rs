@@ -33,6 +33,34 @@ pub fn px(x: f32) -> String {
     }
 }
 
+/// Prints the conformance suite's checks; fails when any failed.
+pub fn conformance(r: &Report) -> Result<()> {
+    println!(
+        "conformance suite on {} (seed {}, {})",
+        r.bus, r.seed, r.preset
+    );
+    for c in &r.conformance {
+        let verdict = if c.passed { "pass" } else { "FAIL" };
+        println!("  {verdict}  {}", c.name);
+        if !c.passed {
+            println!("        {}", c.detail);
+        }
+    }
+    let failed = r.conformance.iter().filter(|c| !c.passed).count();
+    println!(
+        "{} of {} checks passed",
+        r.conformance.len() - failed,
+        r.conformance.len()
+    );
+    if failed > 0 || r.conformance.is_empty() {
+        return Err(Error::NotConformant {
+            failed,
+            checks: r.conformance.len(),
+        });
+    }
+    Ok(())
+}
+
 /// Prints the summary of `r`; with `paper`, the chapter's figures beside the run's. Fails
 /// (after printing) when more than 10 % of the evaluation's trials failed.
 pub fn print(r: &Report, paper: bool) -> Result<()> {

@@ -44,6 +44,8 @@ pub struct CameraProcessor {
     captures: u64,
     /// The last observation sent, to send again when its request is repeated.
     last: Option<proto::Observation>,
+    /// A point to report invalid in the next new capture (a fault injected by a test).
+    spoil: Option<(usize, proto::PointStatus)>,
 }
 
 /// What a message was for the camera processor.
@@ -94,6 +96,12 @@ impl CameraProcessor {
         Self::default()
     }
 
+    /// Makes the next new capture report point `index` (0..4) as invalid with `status`
+    /// (x = y = 0), whatever the cameras see: a fault the conformance suite injects.
+    pub fn spoil_next(&mut self, index: usize, status: proto::PointStatus) {
+        self.spoil = Some((index, status));
+    }
+
     /// Captures served so far (each is one move of the controller).
     pub fn captures(&self) -> u64 {
         self.captures
@@ -131,11 +139,20 @@ impl CameraProcessor {
                 (Sight::Centre { noisy, truth }, points_of(&noisy))
             }
         };
-        let obs = proto::Observation {
+        let mut obs = proto::Observation {
             seq: req.seq,
             what: req.what,
             points,
         };
+        if let Some((i, status)) = self.spoil.take() {
+            if let Some(p) = obs.points.get_mut(i) {
+                *p = PixelPoint {
+                    x: 0.0,
+                    y: 0.0,
+                    status,
+                };
+            }
+        }
         self.last = Some(obs);
         out.push(Envelope::new(NodeId::CameraProcessor, obs.into()));
         Served::Capture(Box::new(Capture {

@@ -65,8 +65,64 @@ pub struct DriftConfig {
     pub wear: bool,
     /// Loss of joint gain per radian of cumulative travel (fraction).
     pub wear_gain_per_rad: f64,
-    /// Offset gained per radian of cumulative travel (degrees).
+    /// Offset gained per radian of cumulative travel (degrees): the initial rate.
     pub wear_offset_deg_per_rad: f64,
+    /// Wear is bounded: the gain loss approaches this fraction and the offset
+    /// `wear_offset_max_deg`, each exponentially in the travel with the initial rates above
+    /// (a McKibben muscle's braid and bladder settle in early use and then change slowly;
+    /// see sim.toml). 0.5 and a large offset bound give the old linear wear (floored at half
+    /// the gain) over any realistic travel.
+    #[serde(default = "default_wear_gain_max")]
+    pub wear_gain_max: f64,
+    /// See `wear_gain_max` (degrees).
+    #[serde(default = "default_wear_offset_max_deg")]
+    pub wear_offset_max_deg: f64,
+}
+
+fn default_wear_gain_max() -> f64 {
+    0.5
+}
+
+fn default_wear_offset_max_deg() -> f64 {
+    1e6
+}
+
+/// What the real arm has beyond the ideal plant. Every effect is off at zero
+/// ([`SimConfig::ideal`]); [`SimConfig::realistic`] (the default) turns them on with the
+/// magnitudes justified in `host-sim/sim.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealismConfig {
+    /// Gravity sag of the shoulder with the whole arm stretched out horizontally (degrees):
+    /// the links' and the hand's weight against the tubes' finite stiffness, scaled by the
+    /// gravity torque of the posture, so the shoulder's angle depends on the elbow's and
+    /// the wrist's.
+    pub sag_shoulder_deg: f64,
+    /// The same for the elbow (forearm and hand beyond it).
+    pub sag_elbow_deg: f64,
+    /// The loop width grows with the gravity load of shoulder and elbow:
+    /// width x (1 + `load_width_gain` x load), load in [0, 1].
+    pub load_width_gain: f64,
+    /// Per-move random variation of each joint's equilibrium (degrees, standard deviation):
+    /// drawn when a joint gets a new command.
+    pub process_noise_deg: f64,
+    /// Fraction of every change of a joint's equilibrium that arrives slowly (viscoelastic
+    /// creep of the rubber).
+    pub creep_fraction: f64,
+    /// Time constant of the creep (s).
+    pub creep_tau_s: f64,
+    /// Branches that differ in shape (a generalised Prandtl-Ishlinskii model): the ascending
+    /// branch follows the envelope x - b(x), the descending x + b(x), with
+    /// b = skew (1 - x^2)(1 + x) / 2 (normalised pressure); the loop bulges on the positive
+    /// side and its branches are not mirror images (`hysteresis_asymmetry` only shifts it).
+    pub hysteresis_skew: f64,
+    /// Probability per light and camera of an outlier: a reflection taken for the LED, a
+    /// valid-looking point anywhere in the image.
+    pub outlier_rate: f64,
+    /// Probability per light and camera of a dropout (not detected).
+    pub dropout_rate: f64,
+    /// The hand and the cylinder hide lights too, not only the upper arm and the forearm.
+    pub occlude_hand_and_cylinder: bool,
 }
 
 /// The whole simulator configuration.
@@ -98,6 +154,9 @@ pub struct SimConfig {
     pub cameras: Vec<CameraConfig>,
     /// Drift and wear.
     pub drift: DriftConfig,
+    /// Effects of the real arm beyond the ideal plant (absent: all off).
+    #[serde(default)]
+    pub realism: RealismConfig,
     /// The cylinder's centre lies this far ahead of the pre-grasp gripper centre (mm).
     pub approach_mm: f64,
     /// Cylinder radius (mm).
@@ -169,7 +228,10 @@ impl Default for SimConfig {
                 wear: false,
                 wear_gain_per_rad: 1e-4,
                 wear_offset_deg_per_rad: 0.01,
+                wear_gain_max: default_wear_gain_max(),
+                wear_offset_max_deg: default_wear_offset_max_deg(),
             },
+            realism: RealismConfig::default(),
             approach_mm: 40.0,
             cylinder_radius_mm: 25.0,
             cylinder_length_mm: 120.0,
@@ -180,6 +242,50 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
+    /// The ideal plant: independent joints, a deterministic arm, a Prandtl-Ishlinskii loop
+    /// whose asymmetry is an offset, no creep, Gaussian centroid noise only, no lens
+    /// distortion, no wear. The built-in default (`Default`), and what every figure of the
+    /// README up to the realistic plant's section was measured on.
+    pub fn ideal() -> SimConfig {
+        SimConfig::default()
+    }
+
+    /// The realistic plant: the ideal one with gravity coupling, process noise, a
+    /// generalised (skewed) loop that widens under load, creep, camera outliers and
+    /// dropouts, occlusion by the hand and the cylinder, a typical lens's barrel distortion
+    /// and bounded wear (off until drift.wear is turned on). Magnitudes and their reasons:
+    /// `host-sim/sim.toml`, section `[realism]`.
+    pub fn realistic() -> SimConfig {
+        let mut c = SimConfig::ideal();
+        c.realism = RealismConfig {
+            sag_shoulder_deg: 2.0,
+            sag_elbow_deg: 1.5,
+            load_width_gain: 0.5,
+            process_noise_deg: 0.03,
+            creep_fraction: 0.03,
+            creep_tau_s: 3.0,
+            hysteresis_skew: 0.3,
+            outlier_rate: 0.002,
+            dropout_rate: 0.005,
+            occlude_hand_and_cylinder: true,
+        };
+        for cam in &mut c.cameras {
+            cam.distortion = [-0.08, 0.01];
+        }
+        c.drift.wear_gain_max = 0.05;
+        c.drift.wear_offset_max_deg = 0.5;
+        c
+    }
+
+    /// A built-in configuration by name: `ideal` or `realistic`.
+    pub fn named(name: &str) -> Option<SimConfig> {
+        match name {
+            "ideal" => Some(SimConfig::ideal()),
+            "realistic" => Some(SimConfig::realistic()),
+            _ => None,
+        }
+    }
+
     /// Parses and validates a TOML configuration.
     pub fn from_toml_str(s: &str) -> Result<SimConfig, SimError> {
         let cfg: SimConfig = toml::from_str(s).map_err(|e| SimError::Config(e.to_string()))?;

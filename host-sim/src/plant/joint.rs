@@ -54,6 +54,38 @@ pub struct Joint {
     pub offset: f64,
     /// Gain factor from wear, set by the plant.
     pub gain: f64,
+    /// Effects of the real arm ([`crate::plant::RealismConfig`]), set by the plant.
+    pub effects: JointEffects,
+    /// Slow part of the equilibrium still to arrive (creep, radians).
+    creep: f64,
+    /// The equilibrium of the previous step (for the creep).
+    eq_last: f64,
+}
+
+/// A joint's share of the real arm's effects.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointEffects {
+    /// Bulge of the generalised play operators' envelopes (see `update_plays`).
+    pub skew: f64,
+    /// Multiplies the loop's contribution (the load-dependent width), 1 without load.
+    pub width_scale: f64,
+    /// This move's random offset of the equilibrium (radians).
+    pub process_offset: f64,
+    /// Fraction of every equilibrium change that arrives by creep.
+    pub creep_fraction: f64,
+    /// Creep time constant (s).
+    pub creep_tau_s: f64,
+}
+
+impl JointEffects {
+    /// No effect.
+    pub const NONE: JointEffects = JointEffects {
+        skew: 0.0,
+        width_scale: 1.0,
+        process_offset: 0.0,
+        creep_fraction: 0.0,
+        creep_tau_s: 0.0,
+    };
 }
 
 impl Joint {
@@ -85,8 +117,12 @@ impl Joint {
             travel: 0.0,
             offset: 0.0,
             gain: 1.0,
+            effects: JointEffects::NONE,
+            creep: 0.0,
+            eq_last: 0.0,
         };
         j.angle = j.equilibrium();
+        j.eq_last = j.angle;
         j
     }
 
@@ -102,6 +138,11 @@ impl Joint {
         let saturated = p.abs() > lim;
         self.command = p.clamp(-lim, lim);
         (raw_of(self.pressure), saturated)
+    }
+
+    /// The command in force (normalised, after saturation).
+    pub fn commanded(&self) -> f64 {
+        self.command
     }
 
     /// The pressure in the tubes (normalised).
@@ -122,13 +163,23 @@ impl Joint {
     fn update_plays(&mut self) {
         let a = self.cfg.hysteresis_asymmetry;
         let x = self.pressure;
+        // generalised play operators (Al Janaideh, Rakheja and Su, 2009): the ascending and
+        // the descending branch follow different envelopes, x - b(x) and x + b(x), with a
+        // bulge b >= 0 that is largest on the positive side, so the loop is wider there and
+        // its branches are not mirror images; skew 0 gives the classical operator
+        let b = if self.effects.skew == 0.0 {
+            0.0
+        } else {
+            self.effects.skew * (1.0 - x * x).max(0.0) * (1.0 + x) / 2.0
+        };
+        let (up_env, down_env) = (x - b, x + b);
         for (y, r) in self.plays.iter_mut().zip(self.radii.iter()) {
             let up = r * (1.0 + a);
             let down = r * (1.0 - a);
-            if x - up > *y {
-                *y = x - up;
-            } else if x + down < *y {
-                *y = x + down;
+            if up_env - up > *y {
+                *y = up_env - up;
+            } else if down_env + down < *y {
+                *y = down_env + down;
             }
         }
     }
@@ -136,12 +187,18 @@ impl Joint {
     /// The equilibrium angle for the current play states (radians).
     pub fn equilibrium(&self) -> f64 {
         let play: f64 = self.plays.iter().sum::<f64>() / PLAYS as f64;
-        let y = self.weight_linear * self.pressure + self.weight_play * play;
+        let y = if self.effects.width_scale == 1.0 {
+            self.weight_linear * self.pressure + self.weight_play * play
+        } else {
+            // a wider loop: the play operators' part grows, the linear part takes the rest
+            let wp = (self.weight_play * self.effects.width_scale).min(0.95);
+            (1.0 - wp) * self.pressure + wp * play
+        };
         let s = (SHAPE * y).tanh() / SHAPE.tanh();
         let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
         let mid = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo);
-        mid + self.gain * half * s + self.offset
+        mid + self.gain * half * s + self.offset + self.effects.process_offset
     }
 
     /// One physics step of `dt` seconds: pressure lag, hysteresis, dynamics
@@ -150,7 +207,16 @@ impl Joint {
         let k = dt / self.cfg.pressure_tau_s;
         self.pressure += (self.command - self.pressure) * k.min(1.0);
         self.update_plays();
-        let target = self.equilibrium();
+        let mut target = self.equilibrium();
+        let fraction = self.effects.creep_fraction;
+        if fraction > 0.0 {
+            // viscoelastic creep: a fraction of every change of the equilibrium arrives with
+            // the time constant creep_tau_s
+            self.creep -= fraction * (target - self.eq_last);
+            self.eq_last = target;
+            self.creep *= (-dt / self.effects.creep_tau_s).exp();
+            target += self.creep;
+        }
         let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
         let acc =
             wn * wn * (target - self.angle) - 2.0 * self.cfg.damping_ratio * wn * self.velocity;
@@ -166,6 +232,8 @@ impl Joint {
         self.pressure = p;
         self.update_plays();
         self.angle = self.equilibrium();
+        self.eq_last = self.angle;
+        self.creep = 0.0;
         self.velocity = 0.0;
     }
 }

@@ -22,7 +22,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::error::Error;
 use camera::Camera;
-pub use config::{CameraConfig, DriftConfig, JointConfig, SimConfig};
+pub use config::{CameraConfig, DriftConfig, JointConfig, RealismConfig, SimConfig};
 pub use grasp::{Cylinder, GraspScore};
 use joint::Joint;
 pub use kinematics::{Chain, Pose};
@@ -55,7 +55,7 @@ impl Plant {
     pub fn new(cfg: &SimConfig, seed: u64) -> Result<Plant, Error> {
         cfg.validate()?;
         Ok(Plant {
-            joints: cfg.joints.iter().map(Joint::new).collect(),
+            joints: joints_of(cfg),
             cameras: [Camera::new(&cfg.cameras[0]), Camera::new(&cfg.cameras[1])],
             noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0CA3_E4A5_0153),
             time_s: 0.0,
@@ -69,7 +69,7 @@ impl Plant {
     /// hysteresis history, no cylinder, and its own camera noise from `seed`. Deployment-style
     /// targets come from a twin: a pose reached along a history independent of the arm's.
     pub fn twin(&self, seed: u64) -> Plant {
-        let mut joints: Vec<Joint> = self.cfg.joints.iter().map(Joint::new).collect();
+        let mut joints = joints_of(&self.cfg);
         for (t, j) in joints.iter_mut().zip(&self.joints) {
             t.travel = j.travel;
         }
@@ -104,11 +104,9 @@ impl Plant {
 
     /// Servo drive unit of `joint`: a 12-bit pressure command.
     pub fn servo_command_raw(&mut self, joint: usize, raw: u16) -> Result<ServoFeedback, Error> {
-        let j = self
-            .joints
-            .get_mut(joint)
+        let (raw_pressure, saturated) = self
+            .command_one(joint, raw)
             .ok_or(Error::NoSuchJoint(joint))?;
-        let (raw_pressure, saturated) = j.command_raw(raw);
         Ok(ServoFeedback {
             raw_pressure,
             saturated,
@@ -117,18 +115,63 @@ impl Plant {
 
     /// Commands all five joints (normalised pressures), through the servo drives.
     pub fn command(&mut self, p: &[f32; 5]) {
+        for (i, &x) in p.iter().enumerate() {
+            self.command_one(i, joint::raw_of(x as f64));
+        }
+    }
+
+    /// One joint's command; a new one (another pressure) draws the move's process noise.
+    fn command_one(&mut self, i: usize, raw: u16) -> Option<(u16, bool)> {
+        let sigma = self.cfg.realism.process_noise_deg.to_radians();
+        let j = self.joints.get_mut(i)?;
+        let new = joint::raw_of(j.commanded()) != raw;
+        let out = j.command_raw(raw);
+        if new && sigma > 0.0 {
+            j.effects.process_offset = sigma * random::gaussian(&mut self.noise);
+        }
+        Some(out)
+    }
+
+    /// Puts every joint at rest at its equilibrium for pressures `p` at once (no dynamics,
+    /// no time passes): the static map of a model (the model-based reference), tests.
+    pub fn settle_joints_at(&mut self, p: &[f64; 5]) {
         for (j, &x) in self.joints.iter_mut().zip(p) {
-            j.command_raw(joint::raw_of(x as f64));
+            j.settle_at(x);
         }
     }
 
     /// Commands some joints.
     pub fn command_joints(&mut self, p: &[(usize, f32)]) {
         for &(i, x) in p {
-            if let Some(j) = self.joints.get_mut(i) {
-                j.command_raw(joint::raw_of(x as f64));
-            }
+            self.command_one(i, joint::raw_of(x as f64));
         }
+    }
+
+    /// Gravity's share of each joint's equilibrium (radians: the sag, negative = down) and
+    /// the load of shoulder and elbow in [0, 1] (the gravity torque of the posture over the
+    /// torque with the arm stretched out horizontally). Relative masses: upper arm 1,
+    /// forearm 0.8, hand with a grasped load 0.7, each at the middle of its link.
+    fn gravity(&self) -> ([f64; 5], [f64; 5]) {
+        let r = &self.cfg.realism;
+        let (mut sag, mut load) = ([0.0; 5], [0.0; 5]);
+        if r.sag_shoulder_deg == 0.0 && r.sag_elbow_deg == 0.0 && r.load_width_gain == 0.0 {
+            return (sag, load);
+        }
+        let q: Vec<f64> = self.joints.iter().map(|j| j.angle()).collect();
+        let (lu, lf, lh) = (self.cfg.upper_arm_mm, self.cfg.forearm_mm, self.cfg.hand_mm);
+        let (mu, mf, mh) = (1.0, 0.8, 0.7);
+        let (a1, a2) = (q[1], q[1] + q[2]);
+        let a3 = a2 + 0.5 * (q[3] + q[4]);
+        let (c1, c2, c3) = (a1.cos(), a2.cos(), a3.cos());
+        let elbow = mf * 0.5 * lf * c2 + mh * (lf * c2 + 0.5 * lh * c3);
+        let elbow_max = mf * 0.5 * lf + mh * (lf + 0.5 * lh);
+        let shoulder = mu * 0.5 * lu * c1 + (mf + mh) * lu * c1 + elbow;
+        let shoulder_max = mu * 0.5 * lu + (mf + mh) * lu + elbow_max;
+        load[1] = (shoulder / shoulder_max).abs();
+        load[2] = (elbow / elbow_max).abs();
+        sag[1] = -r.sag_shoulder_deg.to_radians() * shoulder / shoulder_max;
+        sag[2] = -r.sag_elbow_deg.to_radians() * elbow / elbow_max;
+        (sag, load)
     }
 
     /// One physics step.
@@ -141,17 +184,28 @@ impl Plant {
         } else {
             0.0
         };
-        for j in &mut self.joints {
+        let (sag, load) = self.gravity();
+        let d = &self.cfg.drift;
+        let load_width_gain = self.cfg.realism.load_width_gain;
+        for (i, j) in self.joints.iter_mut().enumerate() {
             let (gain, wear_off) = if d.wear {
+                // linear in the travel at first, bounded (drift.wear_gain_max,
+                // drift.wear_offset_max_deg)
+                let off_max = d.wear_offset_max_deg;
                 (
-                    (1.0 - d.wear_gain_per_rad * j.travel).max(0.5),
-                    (d.wear_offset_deg_per_rad * j.travel).to_radians(),
+                    1.0 - (d.wear_gain_per_rad * j.travel).min(d.wear_gain_max),
+                    (d.wear_offset_deg_per_rad * j.travel)
+                        .clamp(-off_max, off_max)
+                        .to_radians(),
                 )
             } else {
                 (1.0, 0.0)
             };
             j.gain = gain;
-            j.offset = temp + wear_off;
+            j.offset = temp + wear_off + sag[i];
+            if load_width_gain > 0.0 {
+                j.effects.width_scale = 1.0 + load_width_gain * load[i];
+            }
             j.step(dt);
         }
         self.time_s += dt;
@@ -247,4 +301,22 @@ impl Plant {
     pub fn cross(a: &V3, b: &V3) -> V3 {
         cross(a, b)
     }
+}
+
+/// The joints of a configuration, with their share of the real arm's effects.
+fn joints_of(cfg: &SimConfig) -> Vec<Joint> {
+    let r = &cfg.realism;
+    cfg.joints
+        .iter()
+        .map(|c| {
+            let mut j = Joint::new(c);
+            j.effects = joint::JointEffects {
+                skew: r.hysteresis_skew,
+                creep_fraction: r.creep_fraction,
+                creep_tau_s: r.creep_tau_s,
+                ..joint::JointEffects::NONE
+            };
+            j
+        })
+        .collect()
 }

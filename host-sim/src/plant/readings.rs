@@ -1,8 +1,8 @@
 //! Camera readings of the plant's lights: projection through both cameras, occlusion by the
 //! links, centroid noise.
 
-use super::random::gaussian;
-use super::vec3::{scale, segments_distance, sub, unit, V3};
+use super::random::{gaussian, uniform};
+use super::vec3::{add, norm, scale, segments_distance, sub, unit, V3};
 use super::{kinematics, Chain, Plant};
 
 /// Why a light has no reading.
@@ -74,6 +74,44 @@ impl Plant {
             if segments_distance(&eye, &near, a, b) < r {
                 return invalid(PointStatus::Occluded);
             }
+        }
+        if self.cfg.realism.occlude_hand_and_cylinder {
+            // the hand up to just short of the gripper centre (the centre light sits at its
+            // end), and the cylinder, when one stands in front of the arm
+            let c = &chain.pose;
+            let hand_end = sub(&c.centre_mm, &scale(&c.approach, r));
+            if segments_distance(&eye, &near, &chain.wrist, &hand_end) < 0.8 * r {
+                return invalid(PointStatus::Occluded);
+            }
+            if let Some(cyl) = &self.cylinder {
+                let half = scale(&cyl.axis, 0.5 * cyl.length);
+                let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
+                // the cylinder's own centre point is inside it: it is not hidden by itself
+                if norm(&sub(p, &cyl.centre)) > cyl.radius + 1.0
+                    && segments_distance(&eye, &near, &a, &b) < cyl.radius
+                {
+                    return invalid(PointStatus::Occluded);
+                }
+            }
+        }
+        let realism = &self.cfg.realism;
+        if noisy
+            && realism.dropout_rate > 0.0
+            && uniform(&mut self.noise, 0.0, 1.0) < realism.dropout_rate
+        {
+            return invalid(PointStatus::NotDetected);
+        }
+        if noisy
+            && realism.outlier_rate > 0.0
+            && uniform(&mut self.noise, 0.0, 1.0) < realism.outlier_rate
+        {
+            // a reflection taken for the LED: a valid-looking point anywhere in the image
+            let [w, h] = camera.size;
+            return PixelReading {
+                x: uniform(&mut self.noise, 0.0, w as f64),
+                y: uniform(&mut self.noise, 0.0, h as f64),
+                status: PointStatus::Valid,
+            };
         }
         let s = self.cfg.pixel_noise_px;
         let (du, dv) = if noisy {

@@ -156,6 +156,22 @@ pub fn validate(c: &SimConfig) -> Result<(), Error> {
         -10.0,
         10.0,
     )?;
+    between("drift.wear_gain_max", d.wear_gain_max, 0.0, 0.9)?;
+    at_least_zero("drift.wear_offset_max_deg", d.wear_offset_max_deg, 1e6)?;
+    let r = &c.realism;
+    at_least_zero("realism.sag_shoulder_deg", r.sag_shoulder_deg, 30.0)?;
+    at_least_zero("realism.sag_elbow_deg", r.sag_elbow_deg, 30.0)?;
+    at_least_zero("realism.load_width_gain", r.load_width_gain, 5.0)?;
+    at_least_zero("realism.process_noise_deg", r.process_noise_deg, 10.0)?;
+    between("realism.creep_fraction", r.creep_fraction, 0.0, 0.5)?;
+    if r.creep_fraction > 0.0 {
+        positive("realism.creep_tau_s", r.creep_tau_s, 3600.0)?;
+    } else {
+        at_least_zero("realism.creep_tau_s", r.creep_tau_s, 3600.0)?;
+    }
+    between("realism.hysteresis_skew", r.hysteresis_skew, 0.0, 1.0)?;
+    between("realism.outlier_rate", r.outlier_rate, 0.0, 0.5)?;
+    between("realism.dropout_rate", r.dropout_rate, 0.0, 0.5)?;
     Ok(())
 }
 

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use trn_controller::Controller;
+use trn_controller::{Control, Controller};
 use trn_node::{ControllerNode, NodeConfig, NodeStats};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler};
@@ -48,12 +48,12 @@ where
 
 /// Runs the controller node on `port` until the runner sends `ModeChange{Idle}` or `stop`
 /// is set. Returns the controller (with its learned tables) and the counters.
-pub fn run<P>(
+pub fn run<P, C: Control>(
     mut port: P,
-    mut ctrl: Box<Controller>,
+    mut ctrl: Box<C>,
     mode: BusMode,
     stop: &AtomicBool,
-) -> LoopResult
+) -> LoopResult<C>
 where
     P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
@@ -68,7 +68,7 @@ where
             port: &mut port,
             first,
         };
-        node.service(&mut ctrl, &mut rx, &mut enc, &mut waited, now_ms())?;
+        node.service(&mut *ctrl, &mut rx, &mut enc, &mut waited, now_ms())?;
     }
     Ok((
         ctrl,
@@ -79,17 +79,18 @@ where
 }
 
 /// What the node's loop hands back: the controller with its learned tables, and counters.
-pub type LoopResult = Result<(Box<Controller>, LoopStats), trn_protocol::Error>;
+pub type LoopResult<C = Controller> = Result<(Box<C>, LoopStats), trn_protocol::Error>;
 
-/// The controller node in a thread of this process.
-pub struct ControllerThread {
+/// The controller node in a thread of this process, running any [`Control`] (the project's
+/// controller, or the simulator's model-based reference).
+pub struct ControllerThread<C: Control + Send + 'static = Controller> {
     stop: Arc<AtomicBool>,
-    join: Option<JoinHandle<LoopResult>>,
+    join: Option<JoinHandle<LoopResult<C>>>,
 }
 
-impl ControllerThread {
+impl<C: Control + Send + 'static> ControllerThread<C> {
     /// Starts the node on `port`.
-    pub fn spawn<P>(port: P, ctrl: Box<Controller>, mode: BusMode) -> Self
+    pub fn spawn<P>(port: P, ctrl: Box<C>, mode: BusMode) -> Self
     where
         P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error>
             + ReceiveTimeout
@@ -112,7 +113,7 @@ impl ControllerThread {
     /// Ends the node's loop (the session is over: the runner had the `Idle` acknowledged,
     /// or gave up on the controller) and returns the controller. Never waits for a message
     /// that may have been lost.
-    pub fn join(mut self) -> LoopResult {
+    pub fn join(mut self) -> LoopResult<C> {
         self.stop.store(true, Ordering::Relaxed);
         let join = self.join.take().expect("joined once");
         join.join()
@@ -120,7 +121,7 @@ impl ControllerThread {
     }
 }
 
-impl Drop for ControllerThread {
+impl<C: Control + Send + 'static> Drop for ControllerThread<C> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(j) = self.join.take() {

@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 pub enum Peer {
     /// The controller node in a thread (in-process bus): its tables come back at the end.
     Thread(ControllerThread),
+    /// The model-based reference in a thread (in-process bus): nothing comes back.
+    Reference(ControllerThread<crate::reference::NominalIk>),
     /// A child process.
     Process(Child),
     /// A controller this run did not start (a board on the bus): nothing to stop.
@@ -53,6 +55,8 @@ pub struct NodeArgs<'a> {
     pub preset: &'a str,
     /// Ablation name.
     pub ablation: &'a str,
+    /// Control law name (`trn`, `broyden`).
+    pub controller: &'a str,
     /// Simulator configuration (for the image size).
     pub config: Option<&'a Path>,
     /// CAN FD framing.
@@ -78,7 +82,9 @@ pub fn spawn_controller_node(a: &NodeArgs, bus: &str) -> Result<Child> {
     cmd.arg("--preset")
         .arg(a.preset)
         .arg("--ablation")
-        .arg(a.ablation);
+        .arg(a.ablation)
+        .arg("--controller")
+        .arg(a.controller);
     if let Some(c) = a.config {
         cmd.arg("--config").arg(c);
     }
@@ -119,6 +125,12 @@ impl Peer {
                 }
                 let (ctrl, stats) = t.join().map_err(|e| bus_err(e.to_string()))?;
                 Ok(Some((ctrl, stats)))
+            }
+            Peer::Reference(t) => {
+                if session_ok {
+                    t.join().map_err(|e| bus_err(e.to_string()))?;
+                }
+                Ok(None)
             }
             Peer::External => Ok(None),
             Peer::Process(mut child) => {

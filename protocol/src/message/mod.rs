@@ -137,6 +137,7 @@ messages! {
     CaptureRequest = 3;
     Observation = 39;
     ModeChange = 1;
+    SessionConfig = 17;
     SupervisedPressure = 24;
     Stage1Target = 39;
     Stage2Target = 23;
@@ -192,6 +193,26 @@ impl Message {
                     (m.final_error_px, "final_error_px"),
                 ] {
                     if !(x.is_finite() && x >= 0.0) {
+                        return Err(Error::OutOfRange(f));
+                    }
+                }
+                Ok(())
+            }
+            Message::SessionConfig(m) => {
+                if m.preset >= PRESET_CODES {
+                    return Err(Error::OutOfRange("preset"));
+                }
+                if m.ablation >= ABLATION_CODES {
+                    return Err(Error::OutOfRange("ablation"));
+                }
+                if m.law >= LAW_CODES {
+                    return Err(Error::OutOfRange("law"));
+                }
+                for (side, f) in [
+                    (m.image_width, "image_width"),
+                    (m.image_height, "image_height"),
+                ] {
+                    if side == 0 || side > IMAGE_SIDE_MAX {
                         return Err(Error::OutOfRange(f));
                     }
                 }

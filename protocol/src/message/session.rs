@@ -77,3 +77,40 @@ pub struct Emergency {
     /// Why.
     pub reason: EmergencyReason,
 }
+
+/// Number of controller presets on the wire (`SessionConfig::preset` is below it).
+pub const PRESET_CODES: u8 = 3;
+/// Number of ablations on the wire (`SessionConfig::ablation` is below it).
+pub const ABLATION_CODES: u8 = 4;
+/// Number of control laws on the wire (`SessionConfig::law` is below it).
+pub const LAW_CODES: u8 = 3;
+/// Largest image side a session may announce, in pixels.
+pub const IMAGE_SIDE_MAX: u16 = 8192;
+
+/// The run parameters of a session, sent by the runner to the controller before its first
+/// `ModeChange` and echoed by the controller to `Broadcast` once in force (see SPEC.md 3.2).
+/// A controller that is given its configuration some other way may check it against this.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+pub struct SessionConfig {
+    /// Seed of the initial tables.
+    #[serde(with = "postcard::fixint::le")]
+    pub seed: u64,
+    /// Controller preset: 0 project, 1 paper, 2 lifelong (`trn_controller::presets::Preset`).
+    pub preset: u8,
+    /// Ablation: 0 none, 1 no neighbourhood, 2 no priming, 3 no fine moves.
+    pub ablation: u8,
+    /// Camera image width, pixels (the span of the initial stage-1/2 weights).
+    #[serde(with = "postcard::fixint::le")]
+    pub image_width: u16,
+    /// Camera image height, pixels.
+    #[serde(with = "postcard::fixint::le")]
+    pub image_height: u16,
+    /// Long messages as CAN FD frames (true) or segmented CAN 2.0 frames (false) from now on.
+    pub fd: bool,
+    /// Keep the tables the controller holds (loaded from a checkpoint) instead of seeding new
+    /// ones; the controller's configuration must then already be the one described here.
+    pub keep_tables: bool,
+    /// Control law: 0 the TRN, 1 the Broyden servo baseline, 2 a model-based reference
+    /// controller outside the controller crate (`trn_controller::Law`).
+    pub law: u8,
+}

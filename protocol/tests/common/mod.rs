@@ -209,6 +209,34 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
             mode()
         )
             .prop_map(|(n, mode)| Envelope::new(n, ModeChange { mode }.into())),
+        (
+            prop_oneof![Just(NodeId::Controller), Just(NodeId::Broadcast)],
+            any::<u64>(),
+            0..PRESET_CODES,
+            0..ABLATION_CODES,
+            1..=IMAGE_SIDE_MAX,
+            1..=IMAGE_SIDE_MAX,
+            any::<bool>(),
+            (any::<bool>(), 0..LAW_CODES)
+        )
+            .prop_map(
+                |(n, seed, preset, ablation, image_width, image_height, fd, (keep_tables, law))| {
+                    Envelope::new(
+                        n,
+                        SessionConfig {
+                            seed,
+                            preset,
+                            ablation,
+                            image_width,
+                            image_height,
+                            fd,
+                            keep_tables,
+                            law,
+                        }
+                        .into(),
+                    )
+                }
+            ),
         (any_node(), any::<u16>(), any::<u32>())
             .prop_map(|(n, code, detail)| Envelope::new(n, ErrorReport { code, detail }.into())),
         (any_node(), emergency_reason())

@@ -1,0 +1,89 @@
+//! The seam between a control law and the CAN node: what a node asks of a controller. The
+//! project's [`Controller`] (the TRN or the Broyden servo) implements it, and so can a
+//! controller outside this crate (the simulator's model-based reference), so that every
+//! controller runs in the same node, over every bus.
+
+use crate::config::Config;
+use crate::controller::{Command, Controller, Observation, Task};
+use crate::error::Result;
+use crate::stage::FineMoves;
+
+/// A controller as the node drives it: tasks and observations in, commands out.
+pub trait Control {
+    /// Starts a task; its first command.
+    fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command>;
+    /// The observation after the last move; the next command.
+    fn observe(&mut self, obs: Observation) -> Result<Command>;
+    /// Abandons the running task.
+    fn abort(&mut self);
+    /// True while a task runs.
+    fn busy(&self) -> bool;
+    /// The configuration in force.
+    fn config(&self) -> &Config;
+    /// Replaces the configuration between tasks.
+    fn set_config(&mut self, cfg: Config) -> Result<()>;
+    /// New initial tables (or whatever the law starts from) from `seed`.
+    fn init_random(&mut self, seed: u64);
+}
+
+impl Control for Controller {
+    fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command> {
+        Controller::begin_with(self, task, fine)
+    }
+
+    fn observe(&mut self, obs: Observation) -> Result<Command> {
+        Controller::observe(self, obs)
+    }
+
+    fn abort(&mut self) {
+        Controller::abort(self)
+    }
+
+    fn busy(&self) -> bool {
+        Controller::busy(self)
+    }
+
+    fn config(&self) -> &Config {
+        Controller::config(self)
+    }
+
+    fn set_config(&mut self, cfg: Config) -> Result<()> {
+        Controller::set_config(self, cfg)
+    }
+
+    fn init_random(&mut self, seed: u64) {
+        Controller::init_random(self, seed)
+    }
+}
+
+/// A boxed controller is a controller (the host keeps the 230 KB of tables on the heap).
+#[cfg(any(test, feature = "std"))]
+impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
+    fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command> {
+        (**self).begin_with(task, fine)
+    }
+
+    fn observe(&mut self, obs: Observation) -> Result<Command> {
+        (**self).observe(obs)
+    }
+
+    fn abort(&mut self) {
+        (**self).abort()
+    }
+
+    fn busy(&self) -> bool {
+        (**self).busy()
+    }
+
+    fn config(&self) -> &Config {
+        (**self).config()
+    }
+
+    fn set_config(&mut self, cfg: Config) -> Result<()> {
+        (**self).set_config(cfg)
+    }
+
+    fn init_random(&mut self, seed: u64) {
+        (**self).init_random(seed)
+    }
+}
