@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use trn_sim::experiment::cli::{Cli, Cmd};
 use trn_sim::experiment::run::{run_conformance, run_plan};
 use trn_sim::experiment::schedule::Plan;
-use trn_sim::experiment::{compare, summary};
+use trn_sim::experiment::{compare, summary, sweep};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -39,6 +39,7 @@ fn main() -> ExitCode {
                 .and_then(|r| summary::print(&r, false))
         }
         Cmd::Compare(a) => compare::run(a),
+        Cmd::Sweep(a) => sweep::run(a),
         Cmd::Conformance(a) => run_conformance(&a.common).and_then(|r| summary::conformance(&r)),
     };
     match result {

@@ -28,6 +28,28 @@ pub enum Cmd {
     /// project's node, or with --external-controller whatever controller is on the bus)
     /// through every trial sequence and checks its answers; fails if any check fails.
     Conformance(ConformanceArgs),
+    /// The project preset on a built-in list of plant variants (hysteresis width, camera
+    /// noise, coupling, creep, process noise, a skewed loop, outliers, damping), each
+    /// changed alone from the base configuration, seeds from 100: how the result degrades.
+    Sweep(SweepArgs),
+}
+
+/// `trn sweep`.
+#[derive(Debug, Args, Clone)]
+pub struct SweepArgs {
+    /// Seeds to run: 100 .. 100 + N.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Training trials per network.
+    #[arg(long, default_value_t = 300)]
+    pub trials: usize,
+    /// The base configuration the variants change: a TOML file, `ideal` (the default) or
+    /// `realistic`.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Where the variants' configurations and sweep.json go.
+    #[arg(long, default_value = "out/sweep")]
+    pub out: PathBuf,
 }
 
 /// `trn conformance`.

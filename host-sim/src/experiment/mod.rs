@@ -22,6 +22,7 @@ pub mod runner;
 pub mod schedule;
 pub mod scoring;
 pub mod summary;
+pub mod sweep;
 pub mod targets;
 
 pub use report::Report;
