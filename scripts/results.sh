@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates every table and picture of the README from the code, on seeds from 100 up
 # (tuning uses seeds 1-99 only), and rewrites the README's generated sections in place.
-#   bash scripts/results.sh          the full set (about 15 minutes on 2 cores)
+#   bash scripts/results.sh          the full set (about 25 minutes on 2 cores)
 #   bash scripts/results.sh --check  the test suite's shortened check: 3 seeds of the project
 #                                    preset; fails when a headline figure leaves the band
 #                                    (mean +- 4 sd over 10 seeds) in docs/results/bands.json
@@ -22,5 +22,7 @@ fi
 # presets and ablations, 10 seeds from 100
 "$trn" compare --seeds 10 --report "$res/compare.json" > "$res/compare.md"
 python3 scripts/bands.py record "$res/compare.json" "$res/bands.json"
+# the plant variants, 3 seeds from 100 (issue 14)
+"$trn" sweep --seeds 3 --out "$res/sweep" > "$res/sweep.md"
 python3 scripts/readme_sections.py README.md "$res"
 echo "results: README.md, docs/train-seed100.png and $res/ regenerated"
