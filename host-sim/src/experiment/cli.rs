@@ -164,10 +164,12 @@ pub struct Common {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
-    /// separate `controller-node` process on IFACE: vcan0 or a real adapter) or `slcan:qemu`
+    /// separate `controller-node` process on IFACE: vcan0 or a real adapter), `slcan:qemu`
     /// (the firmware in QEMU, CAN frames as SLCAN over its UART; build it first with
     /// `bash scripts/cross/pil.sh --build-only`; it takes seed, preset, ablation and CAN mode
-    /// from the session's `SessionConfig`).
+    /// from the session's `SessionConfig`) or `slcan:/dev/DEVICE` (a USB-CAN adapter that
+    /// speaks serial SLCAN, e.g. /dev/ttyACM0, with a controller elsewhere on the bus:
+    /// `--external-controller`).
     #[arg(long, default_value = "inproc")]
     pub bus: String,
     /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a
@@ -316,4 +318,29 @@ pub struct CompareArgs {
     /// Write every seed's figures as JSON here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// `trn train --help` names every bus form `BusSpec::parse` accepts.
+    #[test]
+    fn train_help_lists_every_bus_form() {
+        let mut cli = Cli::command();
+        let help = cli
+            .find_subcommand_mut("train")
+            .unwrap()
+            .render_long_help()
+            .to_string();
+        for form in [
+            "inproc",
+            "socketcan:IFACE",
+            "slcan:qemu",
+            "slcan:/dev/DEVICE",
+        ] {
+            assert!(help.contains(form), "{form} missing from trn train --help");
+        }
+    }
 }
