@@ -37,7 +37,10 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::config::StageConfig;
 use crate::error::{Error, Result};
-use crate::stage::{check_input, FineMoves, StageOutcome, StageStep, TRACE_LEN, ZERO_OUTCOME};
+use crate::rules::clamp;
+use crate::stage::{
+    check_input, distance, sub, FineMoves, StageOutcome, StageStep, TRACE_LEN, ZERO_OUTCOME,
+};
 
 /// The Broyden servo's constants (one set for both stages).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -190,11 +193,7 @@ impl<const D: usize, const M: usize> BroydenStage<D, M> {
             return Err(Error::Busy);
         }
         self.check_input(target)?;
-        self.exact = match fine {
-            FineMoves::Policy => None,
-            FineMoves::Exactly(n) if (n as usize) < TRACE_LEN => Some(n),
-            FineMoves::Exactly(_) => return Err(Error::FineMoveBudget),
-        };
+        self.exact = fine.budget()?;
         let home = self
             .bcfg
             .home
@@ -369,18 +368,6 @@ impl<const D: usize, const M: usize> BroydenStage<D, M> {
         let q = core::array::from_fn(|c| self.q_last[c] + scale * dq[c]);
         clamp(&q, limit)
     }
-}
-
-fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
-    libm::sqrtf(a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum())
-}
-
-fn sub<const M: usize>(a: &[f32; M], b: &[f32; M]) -> [f32; M] {
-    core::array::from_fn(|i| a[i] - b[i])
-}
-
-fn clamp<const M: usize>(q: &[f32; M], limit: f32) -> [f32; M] {
-    q.map(|x| x.clamp(-limit, limit))
 }
 
 #[cfg(test)]

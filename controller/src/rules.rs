@@ -309,6 +309,17 @@ pub fn clamp<const M: usize>(p: &[f32; M], limit: f32) -> [f32; M] {
     out
 }
 
+/// `1 / ||dv||^2` for the Jacobian rule, or [`Error::ZeroLengthDv`] when `||dv|| < min_dv`
+/// (NaN fails every comparison, so it is rejected too).
+fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], min_dv: f32) -> Result<f32> {
+    let norm2: f32 = dv.iter().map(|x| x * x).sum();
+    if norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite() {
+        Ok(1.0 / norm2)
+    } else {
+        Err(Error::ZeroLengthDv)
+    }
+}
+
 /// (8.15, 8.21, 8.30 in the stage-1 form): the Widrow-Hoff / Broyden rank-one update
 /// `A_k += gamma(r(k)) (dp - A_k dv) dv^T / ||dv||^2`.
 ///
@@ -330,13 +341,7 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
     dv: &[f32; D],
     min_dv: f32,
 ) -> Result<()> {
-    let norm2: f32 = dv.iter().map(|x| x * x).sum();
-    // NaN fails every comparison, so it is rejected here too.
-    let long_enough = norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite();
-    if !long_enough {
-        return Err(Error::ZeroLengthDv);
-    }
-    let inv = 1.0 / norm2;
+    let inv = inverse_dv_norm2(dv, min_dv)?;
     for (&k, &f) in ranking.indices().iter().zip(gamma.value.iter()) {
         let g = coeff * f;
         let a = &mut net.a[k as usize];
@@ -376,12 +381,7 @@ pub fn update_jacobians_and_mean<const N: usize, const D: usize, const M: usize,
     alpha: &Falloff<K>,
     fine_ranks: usize,
 ) -> Result<[[f32; D]; M]> {
-    let norm2: f32 = dv.iter().map(|x| x * x).sum();
-    let long_enough = norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite();
-    if !long_enough {
-        return Err(Error::ZeroLengthDv);
-    }
-    let inv = 1.0 / norm2;
+    let inv = inverse_dv_norm2(dv, min_dv)?;
     let n = (fine_ranks + 1).min(K);
     let ks = ranking.indices();
     let (ks_avg, ks_rest) = ks.split_at(n);

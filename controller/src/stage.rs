@@ -83,6 +83,18 @@ pub enum FineMoves {
     Exactly(u8),
 }
 
+impl FineMoves {
+    /// The fixed budget, if one is asked for: `None` for the controller's rule;
+    /// [`Error::FineMoveBudget`] beyond what a trial can trace ([`TRACE_LEN`] - 1).
+    pub fn budget(self) -> Result<Option<u8>> {
+        match self {
+            FineMoves::Policy => Ok(None),
+            FineMoves::Exactly(n) if (n as usize) < TRACE_LEN => Ok(Some(n)),
+            FineMoves::Exactly(_) => Err(Error::FineMoveBudget),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Trial<const D: usize, const M: usize> {
     target: [f32; D],
@@ -254,11 +266,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             }
         }
         let learn = learn || p_target.is_some();
-        let exact = match fine {
-            FineMoves::Policy => None,
-            FineMoves::Exactly(n) if (n as usize) < TRACE_LEN => Some(n),
-            FineMoves::Exactly(_) => return Err(Error::FineMoveBudget),
-        };
+        let exact = fine.budget()?;
         self.ranking
             .compute(&self.net.w, target, &mut self.scratch, self.rank_mode);
         self.begin_ranked(target, p_target, learn, exact)
@@ -481,10 +489,12 @@ pub fn check_input<const D: usize>(cfg: &StageConfig, u: &[f32; D]) -> Result<()
     Ok(())
 }
 
-fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
+/// Euclidean distance of two image vectors (pixels).
+pub(crate) fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
     libm::sqrtf(a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum())
 }
 
-fn sub<const M: usize>(a: &[f32; M], b: &[f32; M]) -> [f32; M] {
+/// `a - b`, element by element.
+pub(crate) fn sub<const M: usize>(a: &[f32; M], b: &[f32; M]) -> [f32; M] {
     core::array::from_fn(|i| a[i] - b[i])
 }

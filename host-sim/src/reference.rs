@@ -214,11 +214,7 @@ impl Control for NominalIk {
         if self.trial.is_some() {
             return Err(Error::Busy);
         }
-        let exact = match fine {
-            FineMoves::Policy => None,
-            FineMoves::Exactly(n) if (n as usize) < TRACE_LEN => Some(n),
-            FineMoves::Exactly(_) => return Err(Error::FineMoveBudget),
-        };
+        let exact = fine.budget()?;
         let supervised = matches!(
             task,
             Task::Stage1 {

@@ -157,7 +157,7 @@ impl Plant {
         if r.sag_shoulder_deg == 0.0 && r.sag_elbow_deg == 0.0 && r.load_width_gain == 0.0 {
             return (sag, load);
         }
-        let q: Vec<f64> = self.joints.iter().map(|j| j.angle()).collect();
+        let q = self.joint_angles();
         let (lu, lf, lh) = (self.cfg.upper_arm_mm, self.cfg.forearm_mm, self.cfg.hand_mm);
         let (mu, mf, mh) = (1.0, 0.8, 0.7);
         let (a1, a2) = (q[1], q[1] + q[2]);
@@ -185,7 +185,6 @@ impl Plant {
             0.0
         };
         let (sag, load) = self.gravity();
-        let d = &self.cfg.drift;
         let load_width_gain = self.cfg.realism.load_width_gain;
         for (i, j) in self.joints.iter_mut().enumerate() {
             let (gain, wear_off) = if d.wear {

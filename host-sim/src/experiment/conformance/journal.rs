@@ -86,6 +86,23 @@ pub fn errors(journal: &[Envelope]) -> Vec<ErrorReport> {
         .collect()
 }
 
+/// Whether the controller reported the error `code` with `detail`.
+pub fn has_error(journal: &[Envelope], code: u16, detail: u32) -> bool {
+    errors(journal)
+        .iter()
+        .any(|e| e.code == code && e.detail == detail)
+}
+
+/// A problem when the error `code` (named `name`) with `detail` was not reported.
+pub fn missing_error(journal: &[Envelope], code: u16, detail: u32, name: &str) -> Option<String> {
+    (!has_error(journal, code, detail)).then(|| {
+        format!(
+            "errors {:?}, expected {name} (detail {detail:#x})",
+            errors(journal)
+        )
+    })
+}
+
 /// Positions in the journal of the gripper commands, with `close`.
 pub fn gripper_commands(journal: &[Envelope]) -> Vec<(usize, bool)> {
     journal
@@ -230,6 +247,22 @@ mod tests {
             move_problems(&good, &[0, 1, 2], CaptureKind::GripperLights).len(),
             1
         );
+    }
+
+    #[test]
+    fn a_missing_error_is_a_problem_and_a_present_one_is_not() {
+        let err = |code, detail| {
+            Envelope::new(
+                NodeId::Controller,
+                trn_protocol::ErrorReport { code, detail }.into(),
+            )
+        };
+        let j = [cap(1), err(0x0100, 7)];
+        assert!(has_error(&j, 0x0100, 7));
+        assert!(missing_error(&j, 0x0100, 7, "TRIAL_ABORTED").is_none());
+        // another detail or another code is not it
+        assert!(missing_error(&j, 0x0100, 8, "TRIAL_ABORTED").is_some());
+        assert!(missing_error(&j, 0x0104, 7, "OUT_OF_ORDER").is_some());
     }
 
     #[test]

@@ -22,7 +22,10 @@ use trn_protocol::{
 use super::runner::Runner;
 use super::targets::{self, Target};
 use crate::error::Result;
-use journal::{errors, gripper_commands, heartbeat_problems, move_problems, moves, reports};
+use journal::{
+    errors, gripper_commands, has_error, heartbeat_problems, missing_error, move_problems, moves,
+    reports,
+};
 
 /// One check of the suite and its verdict.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -156,9 +159,7 @@ where
     fn ended(trial: u32, stages: usize) -> impl Fn(&[Envelope]) -> bool {
         move |j: &[Envelope]| {
             reports(j).iter().filter(|r| r.trial == trial).count() >= stages
-                || errors(j)
-                    .iter()
-                    .any(|e| e.code == codes::TRIAL_ABORTED && e.detail == trial)
+                || has_error(j, codes::TRIAL_ABORTED, trial)
         }
     }
 
@@ -223,15 +224,12 @@ where
         self.send(stage1(trial, &t, 1, false).into())?;
         let j = self.collect(Self::error_seen(codes::MISSING_SUPERVISION), true)?;
         let mut p = nothing_moved(&j);
-        if !errors(&j)
-            .iter()
-            .any(|e| e.code == codes::MISSING_SUPERVISION && e.detail == trial)
-        {
-            p.push(format!(
-                "errors {:?}, expected MISSING_SUPERVISION",
-                errors(&j)
-            ));
-        }
+        p.extend(missing_error(
+            &j,
+            codes::MISSING_SUPERVISION,
+            trial,
+            "MISSING_SUPERVISION",
+        ));
         self.verdict(
             "Priming: a Stage1Target without its SupervisedPressure starts nothing (MISSING_SUPERVISION)",
             p,
@@ -330,22 +328,19 @@ where
         self.send(msg)?;
         let j = self.collect(Self::ended(trial, 1), true)?;
         let mut p = Vec::new();
-        let e = errors(&j);
         let detail = (1 << 8) | PointStatus::Occluded as u32;
-        if !e
-            .iter()
-            .any(|e| e.code == codes::INVALID_OBSERVATION && e.detail == detail)
-        {
-            p.push(format!(
-                "errors {e:?}, expected INVALID_OBSERVATION {detail:#x}"
-            ));
-        }
-        if !e
-            .iter()
-            .any(|e| e.code == codes::TRIAL_ABORTED && e.detail == trial)
-        {
-            p.push(format!("errors {e:?}, expected TRIAL_ABORTED {trial}"));
-        }
+        p.extend(missing_error(
+            &j,
+            codes::INVALID_OBSERVATION,
+            detail,
+            "INVALID_OBSERVATION",
+        ));
+        p.extend(missing_error(
+            &j,
+            codes::TRIAL_ABORTED,
+            trial,
+            "TRIAL_ABORTED",
+        ));
         if moves(&j).len() != 1 || !reports(&j).is_empty() {
             p.push(format!(
                 "{} moves and reports {:?}: the trial ends at the invalid reading",
@@ -361,15 +356,12 @@ where
         self.send(msg)?;
         let j = self.collect(Self::ended(trial, 1), true)?;
         let mut p = nothing_moved(&j);
-        if !errors(&j)
-            .iter()
-            .any(|e| e.code == codes::TRIAL_ABORTED && e.detail == trial)
-        {
-            p.push(format!(
-                "errors {:?}, expected TRIAL_ABORTED again",
-                errors(&j)
-            ));
-        }
+        p.extend(missing_error(
+            &j,
+            codes::TRIAL_ABORTED,
+            trial,
+            "TRIAL_ABORTED again",
+        ));
         self.verdict(
             "A repeated target of an aborted trial is answered with the abort again, without moving",
             p,
@@ -380,12 +372,12 @@ where
         self.send(stage2(trial, &t, 1, true).into())?;
         let j = self.collect(Self::error_seen(codes::OUT_OF_ORDER), true)?;
         let mut p = nothing_moved(&j);
-        if !errors(&j)
-            .iter()
-            .any(|e| e.code == codes::OUT_OF_ORDER && e.detail == trial)
-        {
-            p.push(format!("errors {:?}, expected OUT_OF_ORDER", errors(&j)));
-        }
+        p.extend(missing_error(
+            &j,
+            codes::OUT_OF_ORDER,
+            trial,
+            "OUT_OF_ORDER",
+        ));
         self.verdict(
             "A grasp's Stage2Target without its GraspRequest and Stage1Target starts nothing (OUT_OF_ORDER)",
             p,
@@ -487,16 +479,14 @@ where
         };
         self.send(other.into())?;
         let j = self.collect(Self::error_seen(codes::CONFIG_REJECTED), true)?;
-        let mut p = Vec::new();
-        if !errors(&j)
-            .iter()
-            .any(|e| e.code == codes::CONFIG_REJECTED && e.detail == codes::CONFIG_NOT_IDLE)
-        {
-            p.push(format!(
-                "errors {:?}, expected CONFIG_REJECTED (not idle)",
-                errors(&j)
-            ));
-        }
+        let mut p: Vec<String> = missing_error(
+            &j,
+            codes::CONFIG_REJECTED,
+            codes::CONFIG_NOT_IDLE,
+            "CONFIG_REJECTED (not idle)",
+        )
+        .into_iter()
+        .collect();
         if j.iter().any(|e| matches!(e.msg, Message::SessionConfig(_))) {
             p.push("the new configuration was acknowledged".into());
         }
