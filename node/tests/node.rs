@@ -490,3 +490,55 @@ fn mode_changes_are_echoed() {
         &[Envelope::new(NodeId::Broadcast, m.into())]
     );
 }
+
+fn session(keep_tables: bool, law: u8, seed: u64) -> Envelope {
+    to_ctrl(
+        trn_protocol::SessionConfig {
+            seed,
+            preset: 0,
+            ablation: 0,
+            image_width: 1024,
+            image_height: 768,
+            fd: false,
+            keep_tables,
+            law,
+        }
+        .into(),
+    )
+}
+
+/// A configuration the controller cannot apply is refused with its reason and changes
+/// nothing: kept tables learned under another configuration (here the paper preset's), a
+/// control law this controller does not run (the host's model reference).
+#[test]
+fn session_configs_that_cannot_apply_are_refused_and_change_nothing() {
+    let (mut c, mut n) = setup();
+    c.set_config(Config::paper()).unwrap();
+    let tables = c.stage1().net().clone();
+    let mut out = Outbox::new();
+    n.on_message(&mut c, &session(true, 0, 5), 0, &mut out);
+    assert_eq!(
+        errors(&out),
+        vec![(codes::CONFIG_REJECTED, codes::CONFIG_MISMATCH)]
+    );
+    let mut out = Outbox::new();
+    n.on_message(&mut c, &session(false, 2, 5), 0, &mut out);
+    assert_eq!(
+        errors(&out),
+        vec![(codes::CONFIG_REJECTED, codes::CONFIG_INVALID)]
+    );
+    assert_eq!(*c.config(), Config::paper());
+    assert!(
+        *c.stage1().net() == tables,
+        "a refused configuration re-seeded the tables"
+    );
+    assert!(n.session().is_none());
+    // a configuration it can apply is acknowledged (echo to Broadcast) and seeds new tables
+    let mut out = Outbox::new();
+    n.on_message(&mut c, &session(false, 0, 5), 0, &mut out);
+    assert!(errors(&out).is_empty());
+    assert!(out
+        .iter()
+        .any(|e| e.node == NodeId::Broadcast && matches!(e.msg, Message::SessionConfig(_))));
+    assert!(*c.stage1().net() != tables);
+}

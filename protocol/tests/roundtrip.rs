@@ -210,3 +210,64 @@ fn wire_lengths_are_exact_and_documented() {
         assert_eq!(k.wire_len(), n, "{k:?}");
     }
 }
+
+/// A `SessionConfig` with a meaningless code or image size never reaches a node.
+#[test]
+fn session_config_values_are_range_checked() {
+    let ok = SessionConfig {
+        seed: 1,
+        preset: 0,
+        ablation: 0,
+        image_width: 1024,
+        image_height: 768,
+        fd: false,
+        keep_tables: false,
+        law: 0,
+    };
+    let mut frames = Frames::new();
+    for (bad, field) in [
+        (
+            SessionConfig {
+                preset: PRESET_CODES,
+                ..ok
+            },
+            "preset",
+        ),
+        (
+            SessionConfig {
+                ablation: ABLATION_CODES,
+                ..ok
+            },
+            "ablation",
+        ),
+        (
+            SessionConfig {
+                law: LAW_CODES,
+                ..ok
+            },
+            "law",
+        ),
+        (
+            SessionConfig {
+                image_width: 0,
+                ..ok
+            },
+            "image_width",
+        ),
+        (
+            SessionConfig {
+                image_height: IMAGE_SIDE_MAX + 1,
+                ..ok
+            },
+            "image_height",
+        ),
+    ] {
+        let env = Envelope::new(NodeId::Controller, bad.into());
+        assert_eq!(
+            encode(&env, BusMode::Fd, 0, &mut frames),
+            Err(Error::OutOfRange(field))
+        );
+    }
+    let env = Envelope::new(NodeId::Controller, ok.into());
+    assert!(encode(&env, BusMode::Fd, 0, &mut frames).is_ok());
+}
