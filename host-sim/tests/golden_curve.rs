@@ -19,6 +19,8 @@ fn a_short_run_reproduces_the_recorded_curve_bit_for_bit() {
     let common = Common {
         eval_targets: 10,
         grasps: 4,
+        // the plant the recording was made on (the runs' default is the realistic one)
+        config: Some(PathBuf::from("ideal")),
         ..Common::inproc(3, Preset::Project, Ablation::None)
     };
     // snapshots every 10 trials: they must not change the training curve

@@ -6,13 +6,16 @@ use std::process::ExitCode;
 use trn_sim::experiment::cli::{Cli, Cmd};
 use trn_sim::experiment::run::{run_conformance, run_plan};
 use trn_sim::experiment::schedule::Plan;
-use trn_sim::experiment::{compare, summary, sweep};
+use trn_sim::experiment::{compare, lifelong, summary, sweep};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Cmd::Train(a) => {
-            let plan = a.common.plan(a.trials as usize);
+            let plan = Plan {
+                resume: a.resume,
+                ..a.common.plan(a.trials as usize)
+            };
             run_plan(
                 &a.common,
                 plan,
@@ -40,6 +43,7 @@ fn main() -> ExitCode {
         }
         Cmd::Compare(a) => compare::run(a),
         Cmd::Sweep(a) => sweep::run(a),
+        Cmd::Lifelong(a) => lifelong::run(a),
         Cmd::Conformance(a) => run_conformance(&a.common).and_then(|r| summary::conformance(&r)),
     };
     match result {

@@ -41,20 +41,7 @@ pub fn load(
     provenance: Provenance,
     allow_change: bool,
 ) -> Result<()> {
-    let file = File::open(path).map_err(io(path))?;
-    let meta = file.metadata().map_err(io(path))?;
-    if !meta.is_file() {
-        return Err(Error::Config(format!(
-            "checkpoint {}: not a regular file",
-            path.display()
-        )));
-    }
-    let mut bytes = Vec::new();
-    // bounded: one byte more than any checkpoint tells a too-long file without reading it all
-    file.take(checkpoint::MAX_SIZE as u64 + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io(path))?;
-    let header = checkpoint::verify(&bytes).map_err(checkpoint_err(path))?;
+    let (bytes, header) = read(path)?;
     if !allow_change {
         if header.provenance != provenance {
             return Err(mismatch(
@@ -75,6 +62,33 @@ pub fn load(
     }
     checkpoint::restore(ctrl, &bytes).map_err(checkpoint_err(path))?;
     Ok(())
+}
+
+/// Reads and verifies a checkpoint file (length, CRC, magic, version, shapes, values):
+/// its bytes and header.
+pub fn read(path: &Path) -> Result<(Vec<u8>, checkpoint::Header)> {
+    let file = File::open(path).map_err(io(path))?;
+    let meta = file.metadata().map_err(io(path))?;
+    if !meta.is_file() {
+        return Err(Error::Config(format!(
+            "checkpoint {}: not a regular file",
+            path.display()
+        )));
+    }
+    let mut bytes = Vec::new();
+    // bounded: one byte more than any checkpoint tells a too-long file without reading it all
+    file.take(checkpoint::MAX_SIZE as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io(path))?;
+    let header = checkpoint::verify(&bytes).map_err(checkpoint_err(path))?;
+    Ok((bytes, header))
+}
+
+/// The CRC a verified checkpoint file ends with: what a simulator checkpoint records to
+/// be paired with it.
+pub fn crc_of(bytes: &[u8]) -> u32 {
+    let n = bytes.len();
+    u32::from_le_bytes([bytes[n - 4], bytes[n - 3], bytes[n - 2], bytes[n - 1]])
 }
 
 static TEMP: AtomicU64 = AtomicU64::new(0);

@@ -32,6 +32,43 @@ pub enum Cmd {
     /// noise, coupling, creep, process noise, a skewed loop, outliers, damping), each
     /// changed alone from the base configuration, seeds from 100: how the result degrades.
     Sweep(SweepArgs),
+    /// Life-long learning under temperature drift and wear: thousands of trials with frozen
+    /// snapshot evaluations (held-out targets and grasps), for the network frozen after its
+    /// initial training, the project preset, the lifelong preset and the Broyden servo.
+    Lifelong(LifelongArgs),
+}
+
+/// `trn lifelong`.
+#[derive(Debug, Args, Clone)]
+pub struct LifelongArgs {
+    /// Seed of the runs (seeds 1-99 are for tuning).
+    #[arg(long, default_value_t = 100)]
+    pub seed: u64,
+    /// Trials per network, in all.
+    #[arg(long, default_value_t = 5000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: u64,
+    /// Training trials before the frozen network stops learning.
+    #[arg(long, default_value_t = 300)]
+    pub initial: usize,
+    /// A snapshot evaluation every this many trials.
+    #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub snapshot_every: u64,
+    /// Held-out targets per network in each snapshot.
+    #[arg(long, default_value_t = 50)]
+    pub snapshot_targets: usize,
+    /// Held-out grasps in each snapshot.
+    #[arg(long, default_value_t = 40)]
+    pub snapshot_grasps: usize,
+    /// Simulator configuration: `aging` (the default: the ideal plant with temperature
+    /// drift and bounded wear), another built-in one by name, or a TOML file.
+    #[arg(long, default_value = "aging")]
+    pub config: PathBuf,
+    /// Only these controllers (comma-separated: frozen, project, lifelong, broyden).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["frozen".to_string(), "project".into(), "lifelong".into(), "broyden".into()])]
+    pub only: Vec<String>,
+    /// Where lifelong.json (and, with the plot feature, lifelong.png) go.
+    #[arg(long, default_value = "out/lifelong")]
+    pub out: PathBuf,
 }
 
 /// `trn sweep`.
@@ -44,7 +81,7 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 300)]
     pub trials: usize,
     /// The base configuration the variants change: a TOML file, `ideal` (the default) or
-    /// `realistic`.
+    /// `realistic` (the last two rows are the realistic plant whatever the base).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Where the variants' configurations and sweep.json go.
@@ -159,8 +196,10 @@ pub struct Common {
     /// README reports seeds from 100 up.
     #[arg(long, default_value_t = 100)]
     pub seed: u64,
-    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
-    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
+    /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
+    /// default: coupling, process noise, skewed loops, creep, camera outliers and
+    /// dropouts, occlusion by hand and cylinder, lens distortion; `ideal`: none of it;
+    /// `aging`: the ideal plant with temperature drift and bounded wear).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Bus: `inproc` (the controller node in a thread, the default), `socketcan:IFACE` (a
@@ -267,6 +306,10 @@ impl Common {
             fine_moves: self.fine_moves,
             snapshot_every: self.snapshot_every,
             snapshot_targets: self.snapshot_targets,
+            snapshot_grasps: 0,
+            learn_trials: None,
+            first_trial: 0,
+            resume: false,
         }
     }
 }
@@ -283,9 +326,16 @@ pub struct TrainArgs {
     /// Continue from this checkpoint (life-long learning).
     #[arg(long)]
     pub checkpoint_in: Option<PathBuf>,
-    /// Save the trained networks here (written atomically).
+    /// Save the trained networks here (written atomically), and the simulator's state at
+    /// the end of training beside it (`CHECKPOINT.sim`, for `--continue`).
     #[arg(long)]
     pub checkpoint_out: Option<PathBuf>,
+    /// Continue the run that wrote `--checkpoint-in` where it stopped: its plant (drift,
+    /// wear, hysteresis), training targets and held-out sets from `CHECKPOINT.sim`, its
+    /// schedule from the trial it reached. Without it a checkpoint continues its schedule
+    /// (the learning steps it holds) on a new plant.
+    #[arg(long = "continue", requires = "checkpoint_in")]
+    pub resume: bool,
 }
 
 /// `trn eval` and `trn grasp`.
@@ -311,8 +361,10 @@ pub struct CompareArgs {
     /// Only the project preset (the test suite's band check).
     #[arg(long)]
     pub project_only: bool,
-    /// Simulator configuration: a TOML file, or a built-in one by name (`ideal`, the
-    /// default; `realistic`: coupling, process noise, skewed loops, creep, camera outliers).
+    /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
+    /// default: coupling, process noise, skewed loops, creep, camera outliers and
+    /// dropouts, occlusion by hand and cylinder, lens distortion; `ideal`: none of it;
+    /// `aging`: the ideal plant with temperature drift and bounded wear).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Write every seed's figures as JSON here.

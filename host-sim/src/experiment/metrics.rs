@@ -203,12 +203,31 @@ fn snapshots(log: &RunLog) -> Vec<SnapshotPoint> {
     seen.into_iter()
         .map(|n| {
             let d = deployment(log, Phase::Snapshot(n), 0);
+            let asked = log.phase(Phase::SnapshotGrasp(n)).count();
+            let g = grasp_summary(log, Phase::SnapshotGrasp(n), asked);
+            // a grasp whose cylinder the twin arm, worn and drifted as the arm is now, can no
+            // longer hold or see is no target: counted apart, not as the controller's failure
+            let unreachable = log
+                .phase(Phase::SnapshotGrasp(n))
+                .filter(|r| !r.target_seen)
+                .count();
+            let scored = asked - unreachable;
             SnapshotPoint {
                 trial: n,
                 stage1_true_px: d.stage1_true_px,
                 stage2_true_px: d.stage2_true_px,
                 combined_true_px: d.combined_true_px,
+                combined_measured_px: d.combined_measured_px,
+                noise_floor_px: d.noise_floor_px,
                 failed_trials: d.failed_trials,
+                grasps: asked,
+                grasps_unreachable: unreachable,
+                grasp_success: if scored > 0 {
+                    g.success_rate * asked as f32 / scored as f32
+                } else {
+                    f32::NAN
+                },
+                grasp_failures: g.failure_causes,
             }
         })
         .collect()
@@ -289,13 +308,22 @@ fn grasp_cause(r: &TrialRecord, limit_deg: f64) -> &'static str {
 }
 
 fn grasping(report: &mut Report, log: &RunLog, grasps: usize) {
+    let g = grasp_summary(log, Phase::Grasping, grasps);
+    report.grasp_success_rate = g.success_rate;
+    report.error_mm = g.error_mm;
+    report.error_deg = g.error_deg;
+    report.grasp = g;
+}
+
+/// The grasps of `phase` (`grasps` of them asked for).
+fn grasp_summary(log: &RunLog, phase: Phase, grasps: usize) -> GraspSummary {
     let mut g = GraspSummary {
         grasps,
         ..Default::default()
     };
     let (mut ok, mut gc, mut gct, mut gmm, mut gdeg, mut gmoves) =
         (0usize, vec![], vec![], vec![], vec![], vec![]);
-    for r in log.phase(Phase::Grasping) {
+    for r in log.phase(phase) {
         if let Some(reason) = failure(r) {
             *g.failure_causes.entry(reason).or_default() += 1;
             continue;
@@ -329,8 +357,5 @@ fn grasping(report: &mut Report, log: &RunLog, grasps: usize) {
     g.error_mm = mean(&gmm);
     g.error_deg = mean(&gdeg);
     g.fine_moves = mean(&gmoves);
-    report.grasp_success_rate = g.success_rate;
-    report.error_mm = g.error_mm;
-    report.error_deg = g.error_deg;
-    report.grasp = g;
+    g
 }

@@ -11,6 +11,7 @@ pub mod checkpoint_file;
 pub mod cli;
 pub mod compare;
 pub mod conformance;
+pub mod lifelong;
 pub mod metrics;
 #[cfg(feature = "plot")]
 pub mod plot;
@@ -21,6 +22,7 @@ pub mod run;
 pub mod runner;
 pub mod schedule;
 pub mod scoring;
+pub mod sim_state;
 pub mod summary;
 pub mod sweep;
 pub mod targets;

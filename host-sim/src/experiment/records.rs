@@ -55,6 +55,8 @@ pub enum Phase {
     /// A frozen snapshot after this many training trials per network: the held-out
     /// targets with the fixed move budget, no learning.
     Snapshot(usize),
+    /// The held-out grasps of the snapshot after this many training trials (stop rule).
+    SnapshotGrasp(usize),
     /// The final held-out evaluation with the fixed move budget (deployment-style targets).
     Deployment,
     /// The final held-out evaluation with the controller's own stop rule (the same
@@ -120,10 +122,12 @@ impl TrialRecord {
 }
 
 /// The log of a run: every trial's record, in order.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default)]
 pub struct RunLog {
     /// The records.
     pub trials: Vec<TrialRecord>,
+    /// The simulator's state at the end of training (for a simulator checkpoint).
+    pub end_of_training: Option<Box<super::sim_state::SimState>>,
 }
 
 impl RunLog {

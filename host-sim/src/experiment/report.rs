@@ -116,8 +116,27 @@ pub struct SnapshotPoint {
     pub stage2_true_px: Vec<f32>,
     /// The same combined.
     pub combined_true_px: Vec<f32>,
+    /// Mean measured combined error after each move.
+    #[serde(default)]
+    pub combined_measured_px: Vec<f32>,
+    /// The camera-noise floor of the measured combined error.
+    #[serde(default)]
+    pub noise_floor_px: f32,
     /// Trials of the snapshot that failed.
     pub failed_trials: usize,
+    /// Grasps in the snapshot (0: none).
+    #[serde(default)]
+    pub grasps: usize,
+    /// Of those, grasps whose cylinder the twin arm (in the arm's present state of drift and
+    /// wear) can no longer hold or see: not targets, left out of the success rate.
+    #[serde(default)]
+    pub grasps_unreachable: usize,
+    /// Fraction of the other grasps that succeeded (NaN: none).
+    #[serde(default)]
+    pub grasp_success: f32,
+    /// Failed grasps by cause (as [`GraspSummary::failure_causes`]).
+    #[serde(default)]
+    pub grasp_failures: std::collections::BTreeMap<String, usize>,
 }
 
 /// A trial that failed, and why.

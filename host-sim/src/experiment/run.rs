@@ -21,6 +21,7 @@ use super::rig::Rig;
 use super::runner::{Runner, Timing};
 use super::schedule;
 pub use super::schedule::Plan;
+use super::sim_state::{self, SimState};
 use crate::error::{io, Error, Result};
 use crate::plant::{Plant, SimConfig};
 use crate::reference::NominalIk;
@@ -61,11 +62,12 @@ pub fn common_config(common: &Common, sim: &SimConfig) -> Config {
     }
 }
 
-/// Loads the simulator configuration: the built-in default when none is given, a built-in
-/// one by name (`ideal`, `realistic`) unless a file of that name exists, else the file.
+/// Loads the simulator configuration: the realistic plant ([`SimConfig::realistic`]) when
+/// none is given, a built-in one by name (`ideal`, `realistic`, `aging`) unless a file of
+/// that name exists, else the file.
 pub fn load_sim_config(path: Option<&Path>) -> Result<SimConfig> {
     match path {
-        None => Ok(SimConfig::default()),
+        None => Ok(SimConfig::realistic()),
         Some(p) => match p.to_str().and_then(SimConfig::named) {
             Some(c) if !p.exists() => Ok(c),
             _ => SimConfig::load(p),
@@ -123,7 +125,7 @@ pub fn run_conformance(common: &Common) -> Result<Report> {
 
 fn run_job(
     common: &Common,
-    plan: Plan,
+    mut plan: Plan,
     cfg: Config,
     (checkpoint_in, checkpoint_out): (Option<&Path>, Option<&Path>),
     command: &str,
@@ -165,6 +167,20 @@ fn run_job(
             bus: common.bus.clone(),
             msg: "the firmware keeps its tables in RAM: no --checkpoint-in/--checkpoint-out".into(),
         });
+    }
+    // a checkpoint's schedule goes on from the trials it learned; `--continue` also restores
+    // the simulation of the run that wrote it
+    let mut resume = None;
+    if let Some(p) = checkpoint_in {
+        let (bytes, header) = checkpoint_file::read(p)?;
+        plan.first_trial = header.t1 as usize;
+        if plan.resume {
+            let path = sim_state::path_beside(p);
+            let crc = checkpoint_file::crc_of(&bytes);
+            resume = Some(sim_state::load(&path, common.seed, &sim_cfg, crc)?);
+        }
+    } else if plan.resume {
+        return Err(Error::Config("--continue needs --checkpoint-in".into()));
     }
     // the run parameters go to the controller over the bus; a tuning configuration that no
     // preset describes is given to the in-process controller directly instead
@@ -209,6 +225,8 @@ fn run_job(
         cfg: &cfg,
         mode,
         bus: &bus,
+        resume: resume.as_ref(),
+        end_state: Default::default(),
     };
     let ctrl = match bus {
         BusSpec::InProc => {
@@ -305,6 +323,15 @@ fn run_job(
     if let (Some((ctrl, _)), Some(p)) = (ctrl, checkpoint_out) {
         checkpoint_file::save(&ctrl, provenance, p)?;
     }
+    // the simulator's half, after the controller's (over SocketCAN the node wrote it), paired
+    // with it by its CRC
+    if let (Some(p), Some(mut state)) = (checkpoint_out, setup.end_state.take()) {
+        if p.exists() {
+            let (bytes, _) = checkpoint_file::read(p)?;
+            state.checkpoint_crc = checkpoint_file::crc_of(&bytes);
+            sim_state::save(&state, &sim_state::path_beside(p))?;
+        }
+    }
     report.wall_s = started.elapsed().as_secs_f64();
     write_outputs(common, &report)?;
     Ok(report)
@@ -346,6 +373,10 @@ struct Setup<'a> {
     cfg: &'a Config,
     mode: BusMode,
     bus: &'a BusSpec,
+    /// The simulation to continue (`--continue`).
+    resume: Option<&'a SimState>,
+    /// The simulator's state at the end of training, for the checkpoint.
+    end_state: std::cell::Cell<Option<Box<SimState>>>,
 }
 
 impl Setup<'_> {
@@ -433,9 +464,11 @@ impl Setup<'_> {
             self.cfg,
             self.common.seed,
             self.common.quiet,
+            self.resume,
         );
         report.bus_stats.runner = runner.stats();
-        let log = log?;
+        let mut log = log?;
+        self.end_state.set(log.end_of_training.take());
         metrics::fill(report, &log, self.plan.eval_targets, self.plan.grasps);
         Ok(())
     }

@@ -122,6 +122,18 @@ where
         &mut self.rig
     }
 
+    /// What the runner carries from trial to trial: the generator of the training targets
+    /// and start poses, and the next trial number (for a simulator checkpoint).
+    pub fn sequence(&self) -> (Xoshiro256PlusPlus, u32) {
+        (self.rng.clone(), self.trial)
+    }
+
+    /// Continues the sequence of [`Runner::sequence`].
+    pub fn continue_sequence(&mut self, (rng, trial): (Xoshiro256PlusPlus, u32)) {
+        self.rng = rng;
+        self.trial = trial;
+    }
+
     /// Announces a mode (`Priming`, `Training`, `Mature`, `Idle`) and waits for the
     /// controller's acknowledgement (the echo to every node), repeating it when none comes.
     pub fn mode(&mut self, mode: Mode) -> Result<()> {

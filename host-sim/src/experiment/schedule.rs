@@ -17,6 +17,7 @@ use trn_protocol::{CanFrame, Mode, FINE_MOVES_POLICY};
 use super::records::{Phase, RunLog, TrialKind};
 use super::runner::{Runner, Source, TrialSpec};
 use super::scoring::{self, combined};
+use super::sim_state::SimState;
 use super::targets::HeldOut;
 use crate::error::Result;
 
@@ -35,6 +36,18 @@ pub struct Plan {
     pub snapshot_every: usize,
     /// Held-out targets per network in a snapshot (the first of the held-out set).
     pub snapshot_targets: usize,
+    /// Grasps in a snapshot (the first of the held-out grasps; 0: none).
+    pub snapshot_grasps: usize,
+    /// Learning stops after this many training trials per network (the tables frozen, mode
+    /// `Mature`); the remaining training trials still move the arm, so drift and wear go on
+    /// as in a run that keeps learning. `None`: learning throughout.
+    pub learn_trials: Option<usize>,
+    /// Training trials per network learned before this run (a checkpoint's): the schedule
+    /// (priming, snapshots, `learn_trials`) continues from there.
+    pub first_trial: usize,
+    /// Continue the simulation of the run that wrote the checkpoint (its `.sim` file,
+    /// [`SimState`]): the same plant, training targets and held-out sets.
+    pub resume: bool,
 }
 
 impl Plan {
@@ -48,13 +61,18 @@ impl Plan {
             fine_moves: 6,
             snapshot_every: 25,
             snapshot_targets: 50,
+            snapshot_grasps: 0,
+            learn_trials: None,
+            first_trial: 0,
+            resume: false,
         }
     }
 
     /// Trials on the bus in all (for the progress bar).
     pub fn total(&self) -> usize {
         let snapshots = self.trials.checked_div(self.snapshot_every).unwrap_or(0);
-        let per_snapshot = 2 * self.snapshot_targets.min(self.eval_targets);
+        let per_snapshot = 2 * self.snapshot_targets.min(self.eval_targets)
+            + self.snapshot_grasps.min(self.grasps);
         self.trials * 2 + snapshots * per_snapshot + self.eval_targets * 6 + self.grasps
     }
 }
@@ -78,13 +96,17 @@ struct HeldOutSets {
 }
 
 /// Runs `plan` (the controller configured with `cfg`, for its priming length) and ends
-/// the session. `seed` draws the held-out targets (apart from the training targets).
+/// the session. `seed` draws the held-out targets (apart from the training targets), from
+/// the plant as it is before `resume` (a simulator checkpoint, [`SimState`]) replaces it:
+/// a continued run keeps the held-out sets of the run it continues. The log keeps the
+/// simulator's state at the end of training.
 pub fn run<P>(
     runner: &mut Runner<P>,
-    plan: Plan,
+    mut plan: Plan,
     cfg: &Config,
     seed: u64,
     quiet: bool,
+    resume: Option<&SimState>,
 ) -> Result<RunLog>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
@@ -96,23 +118,36 @@ where
         targets: HeldOut::set(plant, &mut rng, plan.eval_targets, false)?,
         grasps: HeldOut::set(plant, &mut rng, plan.grasps, true)?,
     };
+    if let Some(s) = resume {
+        *runner.rig_mut().plant_mut() = s.plant.clone();
+        runner.continue_sequence((s.runner_rng.clone(), s.runner_trial));
+        plan.first_trial = s.trials_done;
+    }
     let mut log = RunLog::default();
+    let first = plan.first_trial;
     if plan.trials > 0 {
-        runner.mode(Mode::Priming)?;
+        let primed = first as u32 >= cfg.supervised_steps;
+        runner.mode(if primed {
+            Mode::Training
+        } else {
+            Mode::Priming
+        })?;
         bar.set_prefix("training");
     }
     let mut recent = Vec::new();
-    for i in 0..plan.trials {
-        let supervised = (i as u32) < cfg.supervised_steps;
-        if i as u32 == cfg.supervised_steps {
+    let learning = |i: usize| plan.learn_trials.is_none_or(|n| i < n);
+    for i in first..first + plan.trials {
+        let learn = learning(i);
+        let supervised = learn && (i as u32) < cfg.supervised_steps;
+        if !learn && (i == first || learning(i - 1)) {
+            // frozen from here on: the tables no longer change
+            runner.mode(Mode::Mature)?;
+        } else if learn && i as u32 == cfg.supervised_steps {
             runner.mode(Mode::Training)?;
         }
-        let kind1 = TrialKind::Stage1 {
-            supervised,
-            learn: true,
-        };
+        let kind1 = TrialKind::Stage1 { supervised, learn };
         let r1 = runner.run_trial(kind1, Phase::Training)?;
-        let r2 = runner.run_trial(TrialKind::Stage2 { learn: true }, Phase::Training)?;
+        let r2 = runner.run_trial(TrialKind::Stage2 { learn }, Phase::Training)?;
         let last = |s: Option<scoring::StageScore>| s.map(|s| s.final_px()).unwrap_or(f32::NAN);
         recent.push(combined(
             last(scoring::stage1(&r1)),
@@ -127,17 +162,31 @@ where
         }
         if plan.snapshot_every > 0 && (i + 1) % plan.snapshot_every == 0 {
             bar.set_prefix("snapshot");
-            let resume = if (i as u32 + 1) < cfg.supervised_steps {
+            let resume = if !learning(i + 1) {
+                Mode::Mature
+            } else if (i as u32 + 1) < cfg.supervised_steps {
                 Mode::Priming
             } else {
                 Mode::Training
             };
             let n = plan.snapshot_targets.min(sets.targets.len());
-            snapshot(runner, &mut log, &sets.targets[..n], plan, i + 1, &bar)?;
+            let g = plan.snapshot_grasps.min(sets.grasps.len());
+            let held = (&sets.targets[..n], &sets.grasps[..g]);
+            snapshot(runner, &mut log, held, plan, i + 1, &bar)?;
             runner.mode(resume)?;
             bar.set_prefix("training");
         }
     }
+    let (runner_rng, runner_trial) = runner.sequence();
+    log.end_of_training = Some(Box::new(SimState {
+        version: super::sim_state::VERSION,
+        seed,
+        trials_done: first + plan.trials,
+        runner_rng,
+        runner_trial,
+        checkpoint_crc: 0,
+        plant: runner.rig().plant().clone(),
+    }));
     runner.mode(Mode::Mature)?;
     bar.set_prefix("eval");
     let pairs = |phase, fine_moves| {
@@ -197,11 +246,12 @@ where
 }
 
 /// A frozen evaluation after `trained` training trials per network: the held-out targets
-/// with the fixed move budget, no learning, on a copy of the plant (restored afterwards).
+/// with the fixed move budget and the held-out grasps with the stop rule, no learning, on a
+/// copy of the plant (restored afterwards).
 fn snapshot<P>(
     runner: &mut Runner<P>,
     log: &mut RunLog,
-    targets: &[HeldOut],
+    (targets, grasps): (&[HeldOut], &[HeldOut]),
     plan: Plan,
     trained: usize,
     bar: &indicatif::ProgressBar,
@@ -228,6 +278,16 @@ where
             log.trials.push(runner.run(&spec)?);
             bar.inc(1);
         }
+    }
+    for h in grasps {
+        let spec = TrialSpec {
+            kind: TrialKind::Grasp { learn: false },
+            phase: Phase::SnapshotGrasp(trained),
+            source: Source::HeldOut(*h),
+            fine_moves: FINE_MOVES_POLICY,
+        };
+        log.trials.push(runner.run(&spec)?);
+        bar.inc(1);
     }
     *runner.rig_mut().plant_mut() = saved;
     Ok(())

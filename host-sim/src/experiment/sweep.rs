@@ -1,7 +1,8 @@
 //! `trn sweep`: the project preset on a built-in list of plant variants (hysteresis width,
 //! camera noise, coupling, creep, camera outliers, damping; each changed alone from the base
-//! configuration), on the honest protocol (deployment targets, fixed move budget), over
-//! seeds from 100: how the result degrades with each effect. Each variant's configuration is
+//! configuration, the ideal plant unless `--config` names another; then the realistic plant
+//! with all of them, and with 25 % hysteresis), on the honest protocol (deployment targets,
+//! fixed move budget), over seeds from 100: how the result degrades with each effect. Each variant's configuration is
 //! written as a TOML file beside the report, so every row can be rerun with `--config`.
 
 use std::path::{Path, PathBuf};
@@ -99,6 +100,17 @@ pub const VARIANTS: &[Variant] = &[
         name: "damping 0.15",
         apply: |c| damping(c, 0.15),
     },
+    Variant {
+        name: "realistic (coupling, creep, process noise, skewed loop, outliers, occlusion, distortion: the runs' default)",
+        apply: |c| *c = SimConfig::realistic(),
+    },
+    Variant {
+        name: "realistic, hysteresis width 25 %",
+        apply: |c| {
+            *c = SimConfig::realistic();
+            width(c, 0.25);
+        },
+    },
 ];
 
 /// One variant's figures over the seeds.
@@ -124,7 +136,10 @@ pub struct Row {
 
 /// Runs every variant and prints the table.
 pub fn run(a: &SweepArgs) -> Result<()> {
-    let base = load_sim_config(a.config.as_deref())?;
+    let base = match &a.config {
+        Some(p) => load_sim_config(Some(p))?,
+        None => SimConfig::ideal(),
+    };
     let dir = a.out.clone();
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
     let mut rows = vec![];

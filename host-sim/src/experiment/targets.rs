@@ -152,20 +152,35 @@ pub fn visit_and_return(plant: &mut Plant, rng: &mut impl RngCore, grasp: bool) 
 /// noise floor and, for a grasp, a cylinder placed so that this pose is its pre-grasp pose.
 fn read_target(plant: &mut Plant, p: [f32; 5], grasp: bool) -> Option<Target> {
     {
-        let lights = plant.observe_gripper_lights();
+        // read as the camera processor reads (stereo check, new frames), twice, the two
+        // frames agreeing (plant::stereo): a target is shown once and kept, so an outlier
+        // that passes the stereo check by chance must not become one
+        // (first readings of lights and centre, then the second ones: the order of the
+        // camera noise draws of the plant before the check, so the ideal plant's runs stay
+        // bit for bit what they were)
+        let lights_fn = |p: &mut Plant| p.gripper_lights_filled(&mut None).0;
+        let centre_fn = |p: &mut Plant| p.gripper_centre_filled(&mut None).0;
+        let lights = lights_fn(plant);
         let lights_true = plant.observe_gripper_lights_true();
-        let centre = plant.observe_gripper_centre();
+        let centre = centre_fn(plant);
         let centre_true = plant.observe_gripper_centre_true();
+        if lights.to_vector::<8>().is_none() || centre.to_vector::<4>().is_none() {
+            return None;
+        }
+        let mut lights = (lights, lights_fn(plant));
+        let mut centre = (centre, centre_fn(plant));
+        plant.until_agreeing(&mut lights, lights_fn);
+        plant.until_agreeing(&mut centre, centre_fn);
         let (Some(v), Some(v_true), Some(c), Some(c_true)) = (
-            lights.to_vector(),
+            lights.0.to_vector(),
             lights_true.to_vector(),
-            centre.to_vector(),
+            centre.0.to_vector(),
             centre_true.to_vector(),
         ) else {
             return None;
         };
-        let noise_v = second_reading(plant.observe_gripper_lights(), &v);
-        let noise_c = second_reading(plant.observe_gripper_centre(), &c);
+        let noise_v = second_reading(lights.1, &v);
+        let noise_c = second_reading(centre.1, &c);
         let mut t = Target {
             v,
             v_true,
@@ -179,15 +194,20 @@ fn read_target(plant: &mut Plant, p: [f32; 5], grasp: bool) -> Option<Target> {
         };
         if grasp {
             let cyl = plant.place_cylinder();
+            // a grasp no arm of this make can hold (a joint beyond its range) is no target
+            if !plant.grasp_reachable(&cyl) {
+                return None;
+            }
+            let (cyl_c, cyl_c2) = plant.capture_twice_checked(Plant::observe_cylinder_centre);
             let (Some(cc), Some(cc_true)) = (
-                plant.observe_cylinder_centre().to_vector(),
+                cyl_c.to_vector(),
                 plant.observe_cylinder_centre_true().to_vector(),
             ) else {
                 return None;
             };
             t.c = cc;
             t.c_true = cc_true;
-            t.noise_c = second_reading(plant.observe_cylinder_centre(), &cc);
+            t.noise_c = second_reading(cyl_c2, &cc);
             t.cylinder = Some(cyl);
         }
         Some(t)

@@ -5,7 +5,7 @@ use super::vec3::{cross, dot, norm, sub, unit, V3};
 
 /// A pinhole camera: optical axis from its position towards `look_at`, image x to the
 /// right, image y down, principal point at the image centre.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     pos: V3,
     forward: V3,
@@ -46,6 +46,19 @@ impl Camera {
     /// The camera centre (mm).
     pub fn position(&self) -> V3 {
         self.pos
+    }
+
+    /// The direction (unit, base frame) of the pinhole ray through pixel `(u, v)`, lens
+    /// distortion ignored: a starting point for [`super::stereo::reprojection_error`].
+    pub fn ray(&self, u: f64, v: f64) -> V3 {
+        let (xn, yn) = ((u - self.cx) / self.f, (v - self.cy) / self.f);
+        let d = [
+            self.forward[0] + self.right[0] * xn + self.down[0] * yn,
+            self.forward[1] + self.right[1] * xn + self.down[1] * yn,
+            self.forward[2] + self.right[2] * xn + self.down[2] * yn,
+        ];
+        let n = norm(&d);
+        [d[0] / n, d[1] / n, d[2] / n]
     }
 
     /// Projects a point (mm) to pixels; `None` when it is behind the camera or outside the

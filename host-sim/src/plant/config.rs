@@ -277,11 +277,34 @@ impl SimConfig {
         c
     }
 
-    /// A built-in configuration by name: `ideal` or `realistic`.
+    /// The ideal plant growing old, for life-long learning (`trn lifelong`): temperature
+    /// drift and bounded wear on.
+    /// - Temperature: every joint's rest angle moves by up to 3 degrees over a 1-hour cycle
+    ///   (a few thousand moves). Natural rubber's modulus changes by about 1 % per kelvin, so
+    ///   a 5-10 K swing of a workshop moves a tube pair's balance point by several percent of
+    ///   a joint's range: 3 degrees is 5 % of the shoulder's 56 and 18 % of the base's 34.
+    /// - Wear: the realistic plant's bounds (`wear_gain_max` 5 % of the gain,
+    ///   `wear_offset_max_deg` 0.5 degrees; sim.toml): a McKibben muscle's braid and rubber
+    ///   settle in early use, then change slowly. With the default rates the bounds are
+    ///   reached after some hundred trials.
+    pub fn aging() -> SimConfig {
+        let mut c = SimConfig::ideal();
+        c.drift.temperature = true;
+        c.drift.temperature_amplitude_deg = 3.0;
+        c.drift.temperature_period_s = 3600.0;
+        c.drift.wear = true;
+        let r = SimConfig::realistic().drift;
+        c.drift.wear_gain_max = r.wear_gain_max;
+        c.drift.wear_offset_max_deg = r.wear_offset_max_deg;
+        c
+    }
+
+    /// A built-in configuration by name: `ideal`, `realistic` or `aging`.
     pub fn named(name: &str) -> Option<SimConfig> {
         match name {
             "ideal" => Some(SimConfig::ideal()),
             "realistic" => Some(SimConfig::realistic()),
+            "aging" => Some(SimConfig::aging()),
             _ => None,
         }
     }

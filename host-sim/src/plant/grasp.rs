@@ -1,10 +1,11 @@
 //! Cylinders to grasp and the score of a grasp (Fig. 8.3).
 
+use super::kinematics::forward;
 use super::vec3::{add, angle_deg, norm, scale, sub, V3};
 use super::Plant;
 
 /// A cylinder to grasp.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cylinder {
     /// Centre of mass (mm).
     pub centre: V3,
@@ -55,6 +56,57 @@ impl Plant {
     /// The cylinder placed last.
     pub fn cylinder(&self) -> Option<&Cylinder> {
         self.cylinder.as_ref()
+    }
+
+    /// Whether the arm can hold `cyl` from where it is now, moving the joints stage 2 moves
+    /// (base, shoulder, elbow; the wrists as they are): angles exist that put the gripper
+    /// centre on the cylinder centre with a tilt within the grasp limit, each inside the range
+    /// the joint reaches with drive pressures within its `target_limit`
+    /// ([`super::joint::Joint::angle_range`]), the range every target pose is drawn from.
+    /// A cylinder placed `approach_mm` ahead of a pose near the edge of the workspace can
+    /// need a shoulder or an elbow beyond its stop: no controller can grasp it, and a
+    /// held-out grasp set must not hold it. Found by Gauss-Newton on the forward kinematics
+    /// (finite-difference Jacobian, from the present angles).
+    pub fn grasp_reachable(&self, cyl: &Cylinder) -> bool {
+        const MOVED: usize = 3;
+        let mut q = self.joint_angles();
+        let centre = |q: &[f64; 5]| forward(&self.cfg, q).pose.centre_mm;
+        for _ in 0..30 {
+            let r = sub(&cyl.centre, &centre(&q));
+            if norm(&r) < 0.01 {
+                break;
+            }
+            let mut jac = nalgebra::Matrix3::<f64>::zeros();
+            for k in 0..MOVED {
+                let mut qk = q;
+                qk[k] += 1e-6;
+                let d = sub(&centre(&qk), &centre(&q));
+                for row in 0..3 {
+                    jac[(row, k)] = d[row] / 1e-6;
+                }
+            }
+            let Some(dq) = jac.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2])) else {
+                return false;
+            };
+            // at most 0.2 rad per step: the solution nearest the present pose
+            let step = dq.amax().max(0.2) / 0.2;
+            for k in 0..MOVED {
+                q[k] += dq[k] / step;
+            }
+        }
+        let pose = forward(&self.cfg, &q).pose;
+        let tilt = angle_deg(&pose.normal, &cyl.axis);
+        let in_range = self.joints[..MOVED]
+            .iter()
+            .zip(&self.cfg.joints)
+            .zip(&q)
+            .all(|((j, c), a)| {
+                let (lo, hi) = j.angle_range(c.target_limit);
+                (lo..=hi).contains(a)
+            });
+        norm(&sub(&cyl.centre, &pose.centre_mm)) < 0.1
+            && tilt.min(180.0 - tilt) <= self.cfg.grasp_angle_deg
+            && in_range
     }
 
     /// Scores a grasp of `cyl` with the gripper where it is now.

@@ -33,7 +33,7 @@ pub fn pressure_of(raw: u16) -> f64 {
 }
 
 /// A joint's state.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Joint {
     cfg: JointConfig,
     /// Commanded pressure after saturation (normalised).
@@ -63,7 +63,7 @@ pub struct Joint {
 }
 
 /// A joint's share of the real arm's effects.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct JointEffects {
     /// Bulge of the generalised play operators' envelopes (see `update_plays`).
     pub skew: f64,
@@ -199,6 +199,17 @@ impl Joint {
         let mid = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo);
         mid + self.gain * half * s + self.offset + self.effects.process_offset
+    }
+
+    /// The angles (radians) this joint reaches at rest on the loop's centre line with drive
+    /// pressures within `[-limit, limit]`, in its present state of drift and wear: the range
+    /// the targets' poses come from when `limit` is the joint's `target_limit`.
+    pub fn angle_range(&self, limit: f64) -> (f64, f64) {
+        let s = (SHAPE * limit).tanh() / SHAPE.tanh();
+        let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
+        let mid = 0.5 * (lo + hi) + self.offset;
+        let half = 0.5 * (hi - lo) * self.gain * s;
+        (mid - half, mid + half)
     }
 
     /// One physics step of `dt` seconds: pressure lag, hysteresis, dynamics

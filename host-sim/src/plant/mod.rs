@@ -14,6 +14,7 @@ pub mod kinematics;
 pub mod picture;
 pub mod random;
 mod readings;
+pub mod stereo;
 mod validate;
 pub mod vec3;
 
@@ -40,7 +41,9 @@ pub struct ServoFeedback {
 }
 
 /// The plant.
-#[derive(Debug, Clone)]
+/// Serializable: its whole state goes into a run's simulator checkpoint
+/// ([`crate::experiment::sim_state`]).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Plant {
     cfg: SimConfig,
     joints: Vec<Joint>,

@@ -2,7 +2,7 @@
 //! links, centroid noise.
 
 use super::random::{gaussian, uniform};
-use super::vec3::{add, norm, scale, segments_distance, sub, unit, V3};
+use super::vec3::{add, scale, segments_distance, sub, unit, V3};
 use super::{kinematics, Chain, Plant};
 
 /// Why a light has no reading.
@@ -14,7 +14,8 @@ pub enum PointStatus {
     OutOfView,
     /// Hidden behind the arm.
     Occluded,
-    /// Not detected (unused).
+    /// Not detected: a dropout, or two readings of one light that disagree
+    /// ([`super::stereo`]).
     NotDetected,
 }
 
@@ -62,6 +63,14 @@ impl Plant {
         let Some((u, v)) = camera.project(p) else {
             return invalid(PointStatus::OutOfView);
         };
+        if !noisy {
+            // the ground truth: where the light projects, seen or not (for scoring)
+            return PixelReading {
+                x: u,
+                y: v,
+                status: PointStatus::Valid,
+            };
+        }
         // hidden behind the upper arm or the forearm (capsules)
         let eye = camera.position();
         let r = self.cfg.link_radius_mm;
@@ -86,8 +95,9 @@ impl Plant {
             if let Some(cyl) = &self.cylinder {
                 let half = scale(&cyl.axis, 0.5 * cyl.length);
                 let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
-                // the cylinder's own centre point is inside it: it is not hidden by itself
-                if norm(&sub(p, &cyl.centre)) > cyl.radius + 1.0
+                // a point inside it (its own centre, a gripper light on the fingers that hold
+                // it) is not hidden by it
+                if segments_distance(p, p, &a, &b) > cyl.radius + 1.0
                     && segments_distance(&eye, &near, &a, &b) < cyl.radius
                 {
                     return invalid(PointStatus::Occluded);
