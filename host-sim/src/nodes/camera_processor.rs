@@ -42,7 +42,6 @@ pub struct Capture {
 #[derive(Debug, Clone, Default)]
 pub struct CameraProcessor {
     captures: u64,
-    filled: u64,
     /// Where the gripper's markers were last seen (the start of a marker fit).
     track: Option<[crate::plant::vec3::V3; 3]>,
     /// The last observation sent, to send again when its request is repeated.
@@ -110,12 +109,6 @@ impl CameraProcessor {
         self.captures
     }
 
-    /// Readings of hidden lights filled in from the marker layout so far
-    /// ([`Plant::gripper_lights_filled`]).
-    pub fn filled(&self) -> u64 {
-        self.filled
-    }
-
     /// A received message: a `CaptureRequest` is served (the arm settles, both cameras
     /// read) and answered; what was seen is returned for scoring. A repeat of the last
     /// request (its observation was lost) gets the same observation again without a new
@@ -140,14 +133,12 @@ impl CameraProcessor {
         // light filled in from the marker layout (plant::stereo): not a move
         let (sight, points) = match req.what {
             CaptureKind::GripperLights => {
-                let (noisy, filled) = plant.gripper_lights_filled(&mut self.track);
-                self.filled += filled as u64;
+                let (noisy, _) = plant.gripper_lights_filled(&mut self.track);
                 let truth = plant.observe_gripper_lights_true();
                 (Sight::Lights { noisy, truth }, points_of(&noisy))
             }
             CaptureKind::GripperCentre => {
-                let (noisy, filled) = plant.gripper_centre_filled(&mut self.track);
-                self.filled += filled as u64;
+                let (noisy, _) = plant.gripper_centre_filled(&mut self.track);
                 let truth = plant.observe_gripper_centre_true();
                 (Sight::Centre { noisy, truth }, points_of(&noisy))
             }

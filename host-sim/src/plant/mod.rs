@@ -49,8 +49,21 @@ pub struct Plant {
     joints: Vec<Joint>,
     cameras: [Camera; 2],
     noise: Xoshiro256PlusPlus,
+    /// Each joint's generator of its process noise (one per joint: a joint's draws do not
+    /// depend on the order in which the drives' commands arrive, which a lost or late
+    /// frame changes).
+    move_noise: Vec<Xoshiro256PlusPlus>,
     time_s: f64,
     cylinder: Option<Cylinder>,
+}
+
+/// One process-noise generator per joint, from the plant's seed.
+fn move_noise(seed: u64, joints: usize) -> Vec<Xoshiro256PlusPlus> {
+    (0..joints as u64)
+        .map(|j| {
+            Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15u64.wrapping_mul(j + 1))
+        })
+        .collect()
 }
 
 impl Plant {
@@ -61,6 +74,7 @@ impl Plant {
             joints: joints_of(cfg),
             cameras: [Camera::new(&cfg.cameras[0]), Camera::new(&cfg.cameras[1])],
             noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0CA3_E4A5_0153),
+            move_noise: move_noise(seed ^ 0x0CA3_E4A5_0153, cfg.joints.len()),
             time_s: 0.0,
             cylinder: None,
             cfg: cfg.clone(),
@@ -80,6 +94,7 @@ impl Plant {
             joints,
             cameras: self.cameras.clone(),
             noise: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x071A_5EED),
+            move_noise: move_noise(seed ^ 0x071A_5EED, self.joints.len()),
             time_s: self.time_s,
             cylinder: None,
             cfg: self.cfg.clone(),
@@ -130,7 +145,8 @@ impl Plant {
         let new = joint::raw_of(j.commanded()) != raw;
         let out = j.command_raw(raw);
         if new && sigma > 0.0 {
-            j.effects.process_offset = sigma * random::gaussian(&mut self.noise);
+            let rng = self.move_noise.get_mut(i)?;
+            j.effects.process_offset = sigma * random::gaussian(rng);
         }
         Some(out)
     }
