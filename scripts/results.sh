@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates every table and picture of the README from the code, on seeds from 100 up
 # (tuning uses seeds 1-99 only), and rewrites the README's generated sections in place.
-#   bash scripts/results.sh          the full set (about 40 minutes on 2 cores)
+#   bash scripts/results.sh          the full set (about 45 minutes on 2 cores)
 #   bash scripts/results.sh --check  the test suite's shortened check: 3 seeds of the project
 #                                    preset; fails when a headline figure leaves the band
 #                                    (mean +- 4 sd over 10 seeds) in docs/results/bands.json
@@ -24,6 +24,8 @@ fi
 python3 scripts/bands.py record "$res/compare.json" "$res/bands.json"
 # the plant variants, 3 seeds from 100 (issue 14)
 "$trn" sweep --seeds 3 --out "$res/sweep" > "$res/sweep.md"
+# the compact build (i16 tables) against the f32 build, seeds 100-109 (issue 18)
+bash scripts/compact.sh
 # life-long learning under drift and wear, seed 100 (issue 17)
 "$trn" lifelong --seed 100 --out "$res/lifelong" > "$res/lifelong.md"
 mv "$res/lifelong/lifelong.png" docs/lifelong-seed100.png

@@ -16,5 +16,8 @@ step vcan-hil bash scripts/vcan/run.sh
 # Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.
 step cross-build bash scripts/cross/check-controller.sh
 step firmware-budget bash scripts/cross/budget.sh
+# The compact build (i16 tables): its unit tests, and its error within 5 % of the f32 build's.
+step compact-tables cargo test --release -p trn-controller --features compact
+step compact-accuracy bash scripts/compact.sh --check
 # Processor-in-the-loop: the simulator trains the firmware in QEMU; curves match the host build.
 step firmware-pil bash scripts/cross/pil.sh 30

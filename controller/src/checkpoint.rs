@@ -10,7 +10,8 @@
 //! | 4 | CRC-32 (ISO-HDLC) over everything before it |
 //!
 //! Restoring checks length, CRC, magic, version and shapes, the learning-step counters and
-//! every value (finite, within [`VALUE_LIMITS`]) before anything is written; a rejected
+//! every value (finite, within [`VALUE_LIMITS`] and what the build's tables hold) before
+//! anything is written; a rejected
 //! checkpoint leaves the controller untouched. The header's preset, ablation and
 //! configuration fingerprint let the caller refuse tables learned under another
 //! configuration ([`Header::config_matches`]).
@@ -93,7 +94,7 @@ pub fn crc32(bytes: &[u8]) -> u32 {
 
 const SHAPE1: [u16; 3] = [1000, 8, 5];
 const SHAPE2: [u16; 3] = [200, 4, 3];
-const VALUES: usize = (Stage1Net::TABLE_BYTES + Stage2Net::TABLE_BYTES) / 4;
+const VALUES: usize = Stage1Net::VALUES + Stage2Net::VALUES;
 /// Upper bound of a header's postcard encoding (u16 + 6 x u16 + 3 x u32 as varints + 2 u8).
 const HEADER_MAX: usize = 3 + 6 * 3 + 3 * 5 + 2;
 
@@ -179,10 +180,19 @@ pub fn verify(bytes: &[u8]) -> Result<Header> {
     Ok(header)
 }
 
-/// Each table's values within [`VALUE_LIMITS`], in checkpoint order (stage 1's weights,
-/// pressures, Jacobians, then stage 2's).
+/// Each table's values within [`VALUE_LIMITS`] and within what this build's tables hold
+/// (a compact build's fixed-point range, [`crate::entry::TABLE_SCALES`]), in checkpoint
+/// order (stage 1's weights, pressures, Jacobians, then stage 2's). The format is f32 in
+/// either build, so a checkpoint moves between them; a compact build rounds on restore.
 fn values_within_limits(values: &[u8]) -> bool {
+    use crate::entry::{Entry, Table, TABLE_SCALES};
+    let held = |limit: f32, scale| limit.min(Table::max_abs(scale));
     let (w, p, a) = VALUE_LIMITS;
+    let (w, p, a) = (
+        held(w, TABLE_SCALES.w),
+        held(p, TABLE_SCALES.p),
+        held(a, TABLE_SCALES.a),
+    );
     let tables = |n: usize, d: usize, m: usize| [(n * d, w), (n * m, p), (n * m * d, a)];
     let [s1, s2] = [tables(1000, 8, 5), tables(200, 4, 3)];
     let mut chunks = values.chunks_exact(4);

@@ -31,7 +31,11 @@ pub mod checkpoint;
 pub mod config;
 mod control;
 mod controller;
+pub mod entry;
 mod error;
+#[cfg(all(target_arch = "arm", target_abi = "eabihf", not(feature = "compact")))]
+#[allow(unsafe_code)]
+mod kernels;
 pub mod net;
 pub mod presets;
 pub mod rank;

@@ -1,5 +1,6 @@
 //! Closeness ranking (8.2-8.4): which neurons are closest to an input.
 
+use crate::entry::{Entry, TABLE_SCALES};
 #[cfg(test)]
 use core::cmp::Ordering;
 
@@ -89,10 +90,10 @@ fn less(ad: u32, ai: u16, bd: u32, bi: u16) -> bool {
 
 /// The squared distance (8.2) of `w` to `u`: `sum_d (u_d - w_d)^2`, summed in `d` order.
 #[inline(always)]
-fn dist2<const D: usize>(w: &[f32; D], u: &[f32; D]) -> f32 {
+fn dist2<E: Entry, const D: usize>(w: &[E; D], u: &[f32; D]) -> f32 {
     let mut s = 0.0;
     for d in 0..D {
-        let diff = u[d] - w[d];
+        let diff = u[d] - w[d].get(TABLE_SCALES.w);
         s += diff * diff;
     }
     s
@@ -198,8 +199,8 @@ fn edge_of(c: usize, scale: f32) -> f32 {
 /// The terms `q1..D` of a squared distance added to the partial sum `s` of the first `q1`
 /// (in `d` order), tested against `edge` after `q2` and after all; `None` once not below.
 #[inline(always)]
-fn rest_of_sum<const D: usize>(
-    wk: &[f32; D],
+fn rest_of_sum<E: Entry, const D: usize>(
+    wk: &[E; D],
     u: &[f32; D],
     mut s: f32,
     q1: usize,
@@ -207,14 +208,14 @@ fn rest_of_sum<const D: usize>(
     edge: f32,
 ) -> Option<f32> {
     for d in q1..q2 {
-        let diff = u[d] - wk[d];
+        let diff = u[d] - wk[d].get(TABLE_SCALES.w);
         s += diff * diff;
     }
     if !below(s, edge) {
         return None;
     }
     for d in q2..D {
-        let diff = u[d] - wk[d];
+        let diff = u[d] - wk[d].get(TABLE_SCALES.w);
         s += diff * diff;
     }
     if !below(s, edge) {
@@ -469,9 +470,9 @@ impl<const K: usize> Ranking<K> {
     /// it could not enter (see `select_bucketed`; the heap scan when it cannot decide). The tables are finite (inputs are checked,
     /// checkpoints must be finite, the weight update is a convex step), so no NaN reaches the
     /// order.
-    pub fn compute<const N: usize, const D: usize>(
+    pub fn compute<E: Entry, const N: usize, const D: usize>(
         &mut self,
-        w: &[[f32; D]; N],
+        w: &[[E; D]; N],
         u: &[f32; D],
         scratch: &mut RankScratch<N>,
         mode: RankMode,
@@ -485,7 +486,11 @@ impl<const K: usize> Ranking<K> {
 
     /// [`RankMode::FullSort`]: all `N` keys sorted (on the stack), the first `K` kept.
     #[inline(never)]
-    fn full_sort<const N: usize, const D: usize>(&mut self, w: &[[f32; D]; N], u: &[f32; D]) {
+    fn full_sort<E: Entry, const N: usize, const D: usize>(
+        &mut self,
+        w: &[[E; D]; N],
+        u: &[f32; D],
+    ) {
         let mut all = [0u64; N];
         for (k, (c, wk)) in all.iter_mut().zip(w.iter()).enumerate() {
             *c = key(dist2(wk, u), k);
@@ -507,9 +512,9 @@ impl<const K: usize> Ranking<K> {
     /// struct, the ranking's addresses took extra instructions on every access (measured on
     /// the Cortex-M4F: +36k instructions per ranking in `Controller::begin`).
     #[inline(never)]
-    fn select<const N: usize, const D: usize>(
+    fn select<E: Entry, const N: usize, const D: usize>(
         &mut self,
-        w: &[[f32; D]; N],
+        w: &[[E; D]; N],
         u: &[f32; D],
         buf: &mut Buffers,
     ) {
@@ -539,9 +544,9 @@ impl<const K: usize> Ranking<K> {
     /// than `K` neurons below the threshold (an unlucky sample), more than [`CAPACITY`] kept
     /// at once (many equal distances), no usable scale (all sample distances zero), or `K`
     /// too large for the buffers.
-    fn select_bucketed<const N: usize, const D: usize>(
+    fn select_bucketed<E: Entry, const N: usize, const D: usize>(
         &mut self,
-        w: &[[f32; D]; N],
+        w: &[[E; D]; N],
         u: &[f32; D],
         buf: &mut Buffers,
     ) -> bool {
@@ -585,8 +590,7 @@ impl<const K: usize> Ranking<K> {
         // an opaque table address: with the address of a static known, the loop indexed
         // from it (two more instructions per neuron) instead of stepping a pointer
         let rest = core::hint::black_box(rest);
-        let number =
-            |wk: &[f32; D]| (wk.as_ptr() as usize - base) / core::mem::size_of::<[f32; D]>();
+        let number = |wk: &[E; D]| (wk.as_ptr() as usize - base) / core::mem::size_of::<[E; D]>();
         // two neurons per step: their first terms together (the loop's own instructions
         // once per pair)
         let mut pairs = rest.chunks_exact(2);
@@ -594,9 +598,9 @@ impl<const K: usize> Ranking<K> {
             let (wa, wb) = (&pair[0], &pair[1]);
             let (mut sa, mut sb) = (0.0, 0.0);
             for d in 0..q1 {
-                let da = u[d] - wa[d];
+                let da = u[d] - wa[d].get(TABLE_SCALES.w);
                 sa += da * da;
-                let db = u[d] - wb[d];
+                let db = u[d] - wb[d].get(TABLE_SCALES.w);
                 sb += db * db;
             }
             // NaN fails the comparison too: it is never kept
@@ -620,7 +624,7 @@ impl<const K: usize> Ranking<K> {
         for wk in pairs.remainder() {
             let mut s = 0.0;
             for d in 0..q1 {
-                let diff = u[d] - wk[d];
+                let diff = u[d] - wk[d].get(TABLE_SCALES.w);
                 s += diff * diff;
             }
             if below(s, edge) {
@@ -642,7 +646,11 @@ impl<const K: usize> Ranking<K> {
 
     /// The plain heap scan: the first `K` neurons make the heap, every later one that is
     /// closer than the `K`-th best so far replaces it.
-    fn select_plain<const N: usize, const D: usize>(&mut self, w: &[[f32; D]; N], u: &[f32; D]) {
+    fn select_plain<E: Entry, const N: usize, const D: usize>(
+        &mut self,
+        w: &[[E; D]; N],
+        u: &[f32; D],
+    ) {
         let (first, rest) = w.split_at(K);
         for (k, ((i, d), wk)) in self
             .index
@@ -665,14 +673,14 @@ impl<const K: usize> Ranking<K> {
         for (k, wk) in rest.iter().enumerate() {
             let mut s = 0.0;
             for d in 0..half {
-                let diff = u[d] - wk[d];
+                let diff = u[d] - wk[d].get(TABLE_SCALES.w);
                 s += diff * diff;
             }
             if s > worst {
                 continue;
             }
             for d in half..D {
-                let diff = u[d] - wk[d];
+                let diff = u[d] - wk[d].get(TABLE_SCALES.w);
                 s += diff * diff;
             }
             // every index in the heap is smaller: an equal distance does not enter. Between

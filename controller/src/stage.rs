@@ -124,6 +124,8 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     ranking: Ranking<K>,
     alpha: Falloff<K>,
     neighbour: Falloff<K>,
+    /// The sigma `neighbour` was computed for.
+    neighbour_range: f32,
     phase: Phase,
     trial: Trial<D, M>,
 }
@@ -141,6 +143,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             ranking: Ranking::new(),
             alpha: Falloff::zero(),
             neighbour: Falloff::zero(),
+            neighbour_range: 0.0,
             phase: Phase::Idle,
             trial: Trial {
                 target: [0.0; D],
@@ -167,7 +170,26 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     /// Recomputes the rank tables from the configuration.
     pub(crate) fn prepare(&mut self) {
         self.alpha = Falloff::compute(self.cfg.alpha_range);
-        self.neighbour = Falloff::compute(self.cfg.sigma);
+        // a new configuration may compute the table the other way: no cached range
+        self.neighbour_range = f32::NAN;
+        self.set_neighbour(self.cfg.sigma);
+    }
+
+    /// The neighbourhood table for range `sigma`, recomputed only when sigma changed. With a
+    /// fixed sigma (the paper) it is computed once, exactly ([`Falloff::compute`]); with a
+    /// shrinking one at every learning step, by [`Falloff::compute_by_blocks`] (16 + K/16
+    /// exponentials, within 2 ulp). Either way a function of the configuration and sigma
+    /// alone, so a restored checkpoint continues with the same table.
+    fn set_neighbour(&mut self, sigma: f32) {
+        if sigma.to_bits() == self.neighbour_range.to_bits() {
+            return;
+        }
+        self.neighbour = if self.cfg.sigma_start == self.cfg.sigma {
+            Falloff::compute(sigma)
+        } else {
+            Falloff::compute_by_blocks(sigma)
+        };
+        self.neighbour_range = sigma;
     }
 
     /// Replaces the configuration (between trials).
@@ -298,7 +320,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let p_bar = if learn {
             self.t = t;
             if self.cfg.sigma_start != self.cfg.sigma {
-                self.neighbour = Falloff::compute(self.cfg.sigma_at(t));
+                self.set_neighbour(self.cfg.sigma_at(t));
             }
             // substep 3 (8.9 / 8.17 / 8.25), supervised substep 5 (8.18), and substep 4
             // (8.11 / 8.19 / 8.24, normalised) in one pass
@@ -311,10 +333,17 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 pressures,
                 &self.alpha,
                 target,
+                self.cfg.coarse_ranks as usize,
             )
         } else {
             // substep 4 (8.11 / 8.19 / 8.24), normalised
-            rules::coarse_output(&self.net, &self.ranking, &self.alpha, target)
+            rules::coarse_output(
+                &self.net,
+                &self.ranking,
+                &self.alpha,
+                target,
+                self.cfg.coarse_ranks as usize,
+            )
         };
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {

@@ -18,6 +18,7 @@ mod uart;
 use core::panic::PanicInfo;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
+use trn_controller::entry::{Entry, Table, TABLE_SCALES};
 use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::rank::{RankMode, RankScratch, Ranking};
 use trn_controller::rules::{self, Falloff};
@@ -127,12 +128,12 @@ impl Stat {
 /// into one value so that nothing is optimised away: the cost of the distances alone.
 #[cfg_attr(feature = "pil", allow(dead_code))]
 #[inline(never)]
-fn all_distances(w: &[[f32; 8]; 1000], u: &[f32; 8]) -> f32 {
+fn all_distances(w: &[[Table; 8]; 1000], u: &[f32; 8]) -> f32 {
     let mut least = f32::INFINITY;
     for wk in w.iter() {
         let mut s = 0.0;
         for d in 0..8 {
-            let diff = u[d] - wk[d];
+            let diff = u[d] - wk[d].get(TABLE_SCALES.w);
             s += diff * diff;
         }
         least = least.min(s);
@@ -200,6 +201,7 @@ impl Phases {
                 ranking,
                 &alpha,
                 core::hint::black_box(v),
+                cfg.coarse_ranks as usize,
             ));
         });
         let mut seen = *v;
@@ -216,7 +218,7 @@ impl Phases {
         });
         let t = stage.learning_step() + 1;
         let n_falloff = counter.measure(|| {
-            core::hint::black_box(Falloff::<RANKS>::compute(core::hint::black_box(
+            core::hint::black_box(Falloff::<RANKS>::compute_by_blocks(core::hint::black_box(
                 cfg.sigma_at(t),
             )));
         });
@@ -240,7 +242,7 @@ impl Phases {
         self.mean_jacobian_fine
             .print("mean Jacobian + fine output (rules::mean_jacobian + fine_output)");
         self.falloff.print(
-            "neighbourhood falloff (rules::Falloff::compute, each learning begin: sigma varies)",
+            "neighbourhood falloff (rules::Falloff::compute_by_blocks, each learning begin: sigma varies)",
         );
     }
 }
