@@ -11,10 +11,10 @@
 //!
 //! Restoring checks length, CRC, magic, version and shapes, the learning-step counters and
 //! every value (finite, within [`VALUE_LIMITS`] and what the build's tables hold) before
-//! anything is written; a rejected
-//! checkpoint leaves the controller untouched. The header's preset, ablation and
-//! configuration fingerprint let the caller refuse tables learned under another
-//! configuration ([`Header::config_matches`]).
+//! anything is written; a rejected checkpoint leaves the controller untouched. The header's
+//! preset, ablation and configuration fingerprint let the caller refuse tables learned under
+//! another configuration ([`Header::config_matches`]). The values are f32 in every build: a
+//! compact build (i16 tables) reads and writes the same format, rounding on restore.
 
 use crate::controller::Controller;
 use crate::error::{Error, Result};
@@ -310,6 +310,20 @@ mod tests {
         let crc = CRC.checksum(&huge[..n - 4]);
         huge[n - 4..].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(restore(&mut target, &huge), Err(Error::CheckpointContents));
+        // a Jacobian entry of 0.5: a valid f32 checkpoint, beyond a compact build's range
+        // (±0.125): refused there, restored by the f32 build
+        let mut wide = good.clone();
+        let first_jacobian = hl + (1000 * 8 + 1000 * 5) * 4;
+        wide[first_jacobian..first_jacobian + 4].copy_from_slice(&0.5f32.to_le_bytes());
+        let crc = CRC.checksum(&wide[..n - 4]);
+        wide[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        if cfg!(feature = "compact") {
+            assert_eq!(restore(&mut target, &wide), Err(Error::CheckpointContents));
+        } else {
+            let mut other = Box::new(Controller::new(Config::project_default()));
+            assert!(restore(&mut other, &wide).is_ok());
+            assert_eq!(other.stage1().net().jacobian(0)[0][0], 0.5);
+        }
         // a learning step that would wrap when continued
         let mut late = Box::new(Controller::new(Config::project_default()));
         late.init_random(11);

@@ -178,8 +178,9 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     /// The neighbourhood table for range `sigma`, recomputed only when sigma changed. With a
     /// fixed sigma (the paper) it is computed once, exactly ([`Falloff::compute`]); with a
     /// shrinking one at every learning step, by [`Falloff::compute_by_blocks`] (16 + K/16
-    /// exponentials, within 2 ulp). Either way a function of the configuration and sigma
-    /// alone, so a restored checkpoint continues with the same table.
+    /// exponentials, as close to the exact values as the direct ones). Either way a function
+    /// of the configuration and sigma alone, so a restored checkpoint continues with the same
+    /// table.
     fn set_neighbour(&mut self, sigma: f32) {
         if sigma.to_bits() == self.neighbour_range.to_bits() {
             return;
