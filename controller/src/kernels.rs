@@ -136,16 +136,15 @@ extern "C" {
     fn trn_jacobian_rows_d8(pass: *mut RowPass);
 }
 
-/// Row `m` of the Jacobian rule for the neurons `ks_avg` then `ks_rest` (rates
-/// `coeff * gamma`), returning `sum alpha(r) row` over `ks_avg` (the updated rows), as the
-/// loops of [`crate::rules::update_jacobians_and_mean`] compute them. `None` (nothing
-/// done) unless `D = 8` and every index is a neuron of the table.
-#[allow(clippy::too_many_arguments)]
+/// Row `m` of the Jacobian rule for the ranked neurons `ks` (rates `coeff * gamma`),
+/// returning `sum alpha(r) row` over the first `als.len()` ranks (the updated rows), as the
+/// loops of `rules::jacobian_rows` compute them. `None` (nothing done) unless `D = 8`,
+/// there is a rate for every rank and a rank for every averaging weight, and every index is
+/// a neuron of the table.
 pub(crate) fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
     a: &mut [[[f32; D]; M]; N],
     m: usize,
-    (ks_avg, g_avg, als): (&[u16], &[f32], &[f32]),
-    (ks_rest, g_rest): (&[u16], &[f32]),
+    (ks, gamma, als): (&[u16], &[f32], &[f32]),
     coeff: f32,
     dpm: f32,
     dv: &[f32; D],
@@ -154,10 +153,9 @@ pub(crate) fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
     if D != 8
         || N == 0
         || m >= M
-        || g_avg.len() != ks_avg.len()
-        || als.len() != ks_avg.len()
-        || g_rest.len() != ks_rest.len()
-        || !ks_avg.iter().chain(ks_rest).all(|&k| (k as usize) < N)
+        || gamma.len() != ks.len()
+        || als.len() > ks.len()
+        || !ks.iter().all(|&k| (k as usize) < N)
     {
         return None;
     }
@@ -169,24 +167,18 @@ pub(crate) fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
         inv,
         row0: a[0][m].as_mut_ptr(),
         stride: core::mem::size_of::<[[f32; D]; M]>() as u32,
-        idx: ks_avg.as_ptr(),
-        gamma: g_avg.as_ptr(),
+        idx: ks.as_ptr(),
+        gamma: gamma.as_ptr(),
         alpha: als.as_ptr(),
-        n_avg: ks_avg.len() as u32,
-        n_rest: 0,
+        n_avg: als.len() as u32,
+        n_rest: (ks.len() - als.len()) as u32,
     };
-    // the rest continues where the averaged ranks end (contiguous in the ranking)
-    let contiguous = ks_avg.as_ptr_range().end == ks_rest.as_ptr()
-        && g_avg.as_ptr_range().end == g_rest.as_ptr();
-    if !contiguous && !ks_rest.is_empty() {
-        return None;
-    }
-    pass.n_rest = ks_rest.len() as u32;
-    // SAFETY: the kernel reads `n_avg + n_rest` indices from `idx` and rates from `gamma`
-    // (contiguous slices of those lengths, checked above), `n_avg` weights from `alpha`, and
-    // reads and writes the 8 floats at `row0 + k * stride` for each index `k < N` (checked):
-    // row `m < M` of neuron `k`, inside `a`, which it borrows mutably. It writes `pass.acc`
-    // and touches nothing else (callee-saved registers restored, stack balanced).
+    // SAFETY: the kernel reads `n_avg + n_rest = ks.len()` indices from `idx` and as many
+    // rates from `gamma` (slices of that length, checked above), `n_avg` weights from
+    // `alpha`, and reads and writes the 8 floats at `row0 + k * stride` for each index
+    // `k < N` (checked): row `m < M` of neuron `k`, inside `a`, which it borrows mutably. It
+    // writes `pass.acc` and touches nothing else (callee-saved registers restored, stack
+    // balanced).
     unsafe { trn_jacobian_rows_d8(&mut pass) };
     Some(core::array::from_fn(|d| pass.acc[d]))
 }

@@ -412,8 +412,7 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
         jacobian_rows(
             &mut net.a,
             m,
-            (&ks[..0], &gamma.value[..0], &[]),
-            (ks, &gamma.value),
+            (ks, &gamma.value, &[]),
             coeff,
             dp[m],
             dv,
@@ -447,58 +446,43 @@ pub fn update_jacobians_and_mean<const N: usize, const D: usize, const M: usize,
 ) -> Result<[[f32; D]; M]> {
     let inv = inverse_dv_norm2(dv, min_dv)?;
     let n = (fine_ranks + 1).min(K);
-    let ks = ranking.indices();
-    let (ks_avg, ks_rest) = ks.split_at(n);
-    let (g_avg, g_rest) = gamma.value.split_at(n);
-    let als = &alpha.value[..n];
+    let ranked = (
+        ranking.indices().as_slice(),
+        &gamma.value[..],
+        &alpha.value[..n],
+    );
     let mut a_bar = [[0.0; D]; M];
     for (m, out) in a_bar.iter_mut().enumerate() {
-        *out = jacobian_rows(
-            &mut net.a,
-            m,
-            (ks_avg, g_avg, als),
-            (ks_rest, g_rest),
-            coeff,
-            dp[m],
-            dv,
-            inv,
-        );
+        *out = jacobian_rows(&mut net.a, m, ranked, coeff, dp[m], dv, inv);
     }
     let norm = 1.0 / alpha.sum(n);
     a_bar.iter_mut().flatten().for_each(|x| *x *= norm);
     Ok(a_bar)
 }
 
-/// Row `m` of the Jacobian rule (8.15, 8.21) for the neurons `ks_avg` then `ks_rest`, at
-/// rates `coeff * gamma(r)`: `s = g (dp_m - A_k,m dv) / ||dv||^2`, `A_k,m += s dv`; returns
-/// `sum_r alpha(r) A_k(r),m` over `ks_avg` (the updated rows, in rank order). On the
-/// Cortex-M4F with `D = 8` the same operations run as a hand-written kernel
+/// Row `m` of the Jacobian rule (8.15, 8.21) for the ranked neurons `ks`, at rates
+/// `coeff * gamma(r)`: `s = g (dp_m - A_k,m dv) / ||dv||^2`, `A_k,m += s dv`; returns
+/// `sum_r alpha(r) A_k(r),m` over the first `als.len()` ranks (the updated rows, in rank
+/// order). On the Cortex-M4F with `D = 8` the same operations run as a hand-written kernel
 /// ([`crate::kernels`]), bit for bit.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
     a: &mut [[[Table; D]; M]; N],
     m: usize,
-    (ks_avg, g_avg, als): (&[u16], &[f32], &[f32]),
-    (ks_rest, g_rest): (&[u16], &[f32]),
+    (ks, gamma, als): (&[u16], &[f32], &[f32]),
     coeff: f32,
     dpm: f32,
     dv: &[f32; D],
     inv: f32,
 ) -> [f32; D] {
     #[cfg(all(target_arch = "arm", target_abi = "eabihf", not(feature = "compact")))]
-    if let Some(acc) = crate::kernels::jacobian_rows(
-        a,
-        m,
-        (ks_avg, g_avg, als),
-        (ks_rest, g_rest),
-        coeff,
-        dpm,
-        dv,
-        inv,
-    ) {
+    if let Some(acc) = crate::kernels::jacobian_rows(a, m, (ks, gamma, als), coeff, dpm, dv, inv) {
         return acc;
     }
+    let n = als.len();
+    let (ks_avg, ks_rest) = ks.split_at(n.min(ks.len()));
+    let (g_avg, g_rest) = gamma.split_at(n.min(gamma.len()));
     let sa = TABLE_SCALES.a;
     // the row updated in f32 and stored; returns the stored row's values
     let update = |stored: &mut [Table; D], g: f32| -> [f32; D] {

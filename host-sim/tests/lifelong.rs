@@ -180,6 +180,21 @@ fn unknown_controllers_are_refused() {
     assert!(lifelong::select(&["frozen".into(), "bogus".into()]).is_err());
 }
 
+/// More initial trials than trials is refused before anything runs or is written.
+#[test]
+fn more_initial_trials_than_trials_is_a_config_error() {
+    let out = std::env::temp_dir().join(format!("trn-lifelong-{}-refused", std::process::id()));
+    let a = LifelongArgs {
+        initial: 1001,
+        ..lifelong_args(&out)
+    };
+    match lifelong::run(&a) {
+        Err(trn_sim::Error::Config(m)) => assert!(m.contains("--initial 1001"), "{m}"),
+        other => panic!("expected a configuration error, got {other:?}"),
+    }
+    assert!(!out.exists(), "a refused run created {}", out.display());
+}
+
 fn common(checkpoint_run: bool) -> Common {
     Common {
         config: Some(PathBuf::from("aging")),
