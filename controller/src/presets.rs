@@ -27,6 +27,9 @@ pub enum Ablation {
     NoPriming = 2,
     /// No fine moves (coarse move only).
     NoFine = 3,
+    /// No secant correction of the averaged Jacobian within a trial in mature operation
+    /// ([`crate::StageConfig::trial_secant`] 0, as in the paper).
+    NoTrialSecant = 4,
 }
 
 impl Preset {
@@ -55,11 +58,12 @@ impl Preset {
 
 impl Ablation {
     /// Every ablation, in wire order.
-    pub const ALL: [Ablation; 4] = [
+    pub const ALL: [Ablation; 5] = [
         Ablation::None,
         Ablation::NoNeighbourhood,
         Ablation::NoPriming,
         Ablation::NoFine,
+        Ablation::NoTrialSecant,
     ];
 
     /// The ablation of a wire code.
@@ -69,6 +73,7 @@ impl Ablation {
             1 => Some(Ablation::NoNeighbourhood),
             2 => Some(Ablation::NoPriming),
             3 => Some(Ablation::NoFine),
+            4 => Some(Ablation::NoTrialSecant),
             _ => None,
         }
     }
@@ -80,6 +85,7 @@ impl Ablation {
             Ablation::NoNeighbourhood => "no-neighbourhood",
             Ablation::NoPriming => "no-priming",
             Ablation::NoFine => "no-fine",
+            Ablation::NoTrialSecant => "no-trial-secant",
         }
     }
 }
@@ -133,6 +139,10 @@ pub fn configure(preset: Preset, ablation: Ablation, image: ImageSize) -> Config
             cfg.stage1.max_fine_moves = 0;
             cfg.stage2.max_fine_moves = 0;
         }
+        Ablation::NoTrialSecant => {
+            cfg.stage1.trial_secant = 0.0;
+            cfg.stage2.trial_secant = 0.0;
+        }
     }
     cfg
 }
@@ -150,7 +160,7 @@ mod tests {
             assert_eq!(Ablation::from_code(a as u8), Some(a));
         }
         assert_eq!(Preset::from_code(3), None);
-        assert_eq!(Ablation::from_code(4), None);
+        assert_eq!(Ablation::from_code(5), None);
     }
 
     #[test]
@@ -169,5 +179,9 @@ mod tests {
         let n = configure(Preset::Paper, Ablation::NoFine, ImageSize::DEFAULT);
         assert_eq!(n.stage1.max_fine_moves, 0);
         assert_eq!(n.stage1.j.eps, Config::paper().stage1.j.eps);
+        let s = configure(Preset::Project, Ablation::NoTrialSecant, ImageSize::DEFAULT);
+        assert_eq!((s.stage1.trial_secant, s.stage2.trial_secant), (0.0, 0.0));
+        assert!(Config::project_default().stage1.trial_secant > 0.0);
+        assert_eq!(Config::paper().stage2.trial_secant, 0.0);
     }
 }

@@ -385,6 +385,38 @@ fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], min_dv: f32) -> Result<f32> {
     }
 }
 
+/// The trial's secant correction of the averaged Jacobian in mature operation
+/// ([`crate::StageConfig::trial_secant`]): the rank-one rule of (8.15) applied to the trial's
+/// copy `A_bar` of the average instead of the tables,
+/// `A_bar += gain (dp - A_bar dv) dv^T / ||dv||^2`, with `dp` the last fine move's pressure
+/// change and `dv` the change of position it made. Returns [`Error::ZeroLengthDv`] without
+/// touching `a_bar` when `||dv|| < min_dv` (camera noise would dominate the secant).
+pub fn secant_update<const D: usize, const M: usize>(
+    a_bar: &mut [[f32; D]; M],
+    gain: f32,
+    dp: &[f32; M],
+    dv: &[f32; D],
+    min_dv: f32,
+) -> Result<()> {
+    let inv = inverse_dv_norm2(dv, min_dv)?;
+    secant_rows(a_bar.as_flattened_mut(), gain * inv, dp, dv);
+    Ok(())
+}
+
+/// The rows of [`secant_update`], `row += g (dp_m - row . dv) dv` with `g = gain / ||dv||^2`;
+/// one copy for every size (a cold path: once per fine move, a few hundred instructions),
+/// so that the firmware's flash holds no unrolled copy per stage.
+#[inline(never)]
+fn secant_rows(a: &mut [f32], g: f32, dp: &[f32], dv: &[f32]) {
+    for (row, &dpm) in a.chunks_exact_mut(dv.len()).zip(dp.iter()) {
+        let predicted: f32 = row.iter().zip(dv.iter()).map(|(a, v)| a * v).sum();
+        let gm = g * (dpm - predicted);
+        row.iter_mut()
+            .zip(dv.iter())
+            .for_each(|(a, v)| *a += gm * v);
+    }
+}
+
 /// (8.15, 8.21, 8.30 in the stage-1 form): the Widrow-Hoff / Broyden rank-one update
 /// `A_k += gamma(r(k)) (dp - A_k dv) dv^T / ||dv||^2`.
 ///
@@ -765,6 +797,41 @@ mod tests {
                 assert_eq!(got[m].to_bits(), want[m].to_bits());
             }
         }
+    }
+
+    #[test]
+    fn secant_update_matches_the_move_and_keeps_the_orthogonal_directions() {
+        let a0 = [[0.01, -0.02, 0.03], [0.0, 0.04, -0.01]];
+        let (dp, dv) = ([0.05, -0.02], [3.0, 4.0, 0.0]);
+        let w = [4.0, -3.0, 2.0]; // orthogonal to dv
+        let apply = |a: &[[f32; 3]; 2], x: &[f32; 3]| {
+            a.map(|row| row.iter().zip(x.iter()).map(|(r, v)| r * v).sum::<f32>())
+        };
+        // full gain: the corrected average reproduces the move exactly
+        let mut a = a0;
+        secant_update(&mut a, 1.0, &dp, &dv, 1.0).unwrap();
+        let got = apply(&a, &dv);
+        assert!((got[0] - dp[0]).abs() < 1e-6 && (got[1] - dp[1]).abs() < 1e-6);
+        let (before, after) = (apply(&a0, &w), apply(&a, &w));
+        assert!((before[0] - after[0]).abs() < 1e-6 && (before[1] - after[1]).abs() < 1e-6);
+        // gain 0.3: 30 % of the way from the old prediction to the move
+        let mut b = a0;
+        secant_update(&mut b, 0.3, &dp, &dv, 1.0).unwrap();
+        let (old, new) = (apply(&a0, &dv), apply(&b, &dv));
+        for m in 0..2 {
+            assert!((new[m] - (old[m] + 0.3 * (dp[m] - old[m]))).abs() < 1e-6);
+        }
+        // a move shorter than min_dv (or NaN) changes nothing
+        let mut c = a0;
+        assert_eq!(
+            secant_update(&mut c, 0.3, &dp, &[0.5, 0.0, 0.0], 1.0),
+            Err(Error::ZeroLengthDv)
+        );
+        assert_eq!(
+            secant_update(&mut c, 0.3, &dp, &[f32::NAN, 3.0, 0.0], 1.0),
+            Err(Error::ZeroLengthDv)
+        );
+        assert_eq!(c, a0);
     }
 
     #[test]

@@ -42,7 +42,9 @@ pub struct StageOutcome {
     pub cap_hit: bool,
     /// The tolerance the loop aimed at (pixels).
     pub tolerance: f32,
-    /// Jacobian updates skipped because `dv` was (almost) zero ([`Error::ZeroLengthDv`]).
+    /// Jacobian updates skipped because `dv` was (almost) zero ([`Error::ZeroLengthDv`]):
+    /// the tables' while learning, the trial's secant correction
+    /// ([`crate::StageConfig::trial_secant`]) in mature operation.
     pub skipped_updates: u8,
     /// Error after the coarse move and after each fine move (first `1 + fine_moves` entries,
     /// at most [`TRACE_LEN`]).
@@ -109,6 +111,10 @@ struct Trial<const D: usize, const M: usize> {
     v_prev: [f32; D],
     /// The last pressure applied.
     p_last: [f32; M],
+    /// In mature operation, the averaged Jacobian of the trial's fine moves (computed for the
+    /// first, then corrected by the secant of each move), once `a_held`.
+    a_bar: [[f32; D]; M],
+    a_held: bool,
     outcome: StageOutcome,
 }
 
@@ -154,6 +160,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
+                a_bar: [[0.0; D]; M],
+                a_held: false,
                 outcome: ZERO_OUTCOME,
             },
         }
@@ -356,6 +364,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
+            a_bar: [[0.0; D]; M],
+            a_held: false,
             outcome: StageOutcome {
                 t,
                 learned: learn,
@@ -480,12 +490,33 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let tr = &mut self.trial;
         let a_bar = match a_bar {
             Some(a) => a,
-            None => rules::mean_jacobian(
-                &self.net,
-                &self.ranking,
-                &self.alpha,
-                self.cfg.fine_ranks as usize,
-            ),
+            None if tr.a_held => {
+                // mature operation after the first fine move: the tables and the ranking
+                // are unchanged, so the average is the one held; corrected by the secant of
+                // the move just made (`StageConfig::trial_secant`)
+                let gain = self.cfg.trial_secant;
+                if gain > 0.0 {
+                    let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
+                    let min_dv = self.cfg.min_dv;
+                    if rules::secant_update(&mut tr.a_bar, gain, &dp, &dv, min_dv).is_err() {
+                        tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
+                    }
+                }
+                tr.a_bar
+            }
+            None => {
+                let a = rules::mean_jacobian(
+                    &self.net,
+                    &self.ranking,
+                    &self.alpha,
+                    self.cfg.fine_ranks as usize,
+                );
+                if !tr.learn {
+                    tr.a_bar = a;
+                    tr.a_held = true;
+                }
+                a
+            }
         };
         let p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, self.cfg.pressure_limit);
         tr.p_prev = tr.p_last;
@@ -527,4 +558,74 @@ pub(crate) fn distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
 /// `a - b`, element by element.
 pub(crate) fn sub<const M: usize>(a: &[f32; M], b: &[f32; M]) -> [f32; M] {
     core::array::from_fn(|i| a[i] - b[i])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+
+    const A0: [[f32; 2]; 2] = [[0.01, 0.0], [0.0, 0.02]];
+    const V0: [f32; 2] = [380.0, 290.0];
+    const TARGET: [f32; 2] = [400.0, 300.0];
+
+    /// The arm: `v = V0 + J p` with `J = 0.5 A0^-1`, so every move of the averaged Jacobian
+    /// `A0` goes half as far as it should.
+    fn arm(p: &[f32; 2]) -> [f32; 2] {
+        [V0[0] + 50.0 * p[0], V0[1] + 25.0 * p[1]]
+    }
+
+    /// The errors after the coarse move and 3 fine moves of a mature trial, with every
+    /// neuron's map `A0` (so the averaged Jacobian is `A0`), and whether the tables changed.
+    fn errors(gain: f32) -> ([f32; 4], bool) {
+        let mut cfg = Config::project_default().stage1;
+        cfg.trial_secant = gain;
+        cfg.min_dv = 1e-3;
+        let mut s: Stage<4, 2, 2, 4> = Stage::new(cfg);
+        s.set_config(cfg).unwrap();
+        for k in 0..4 {
+            let w = [V0[0] + k as f32, V0[1] - k as f32];
+            s.net_mut().set_neuron(k, w, [0.0; 2], A0);
+        }
+        let before = s.net().clone();
+        let mut p = s
+            .begin_with(&TARGET, None, false, FineMoves::Exactly(3))
+            .unwrap();
+        let mut out = [0.0; 4];
+        for e in out.iter_mut() {
+            let v = arm(&p);
+            *e = distance(&v, &TARGET);
+            match s.observe(&v).unwrap() {
+                StageStep::Move(next) => p = next,
+                StageStep::Done(o) => assert_eq!(o.skipped_updates, 0),
+            }
+        }
+        (
+            out,
+            s.net().w != before.w || s.net().a != before.a || s.net().p != before.p,
+        )
+    }
+
+    #[test]
+    fn the_trial_secant_corrects_the_averaged_jacobians_gain_within_the_trial() {
+        // without the correction every fine move halves the error
+        let (e, changed) = errors(0.0);
+        assert!(!changed);
+        for m in 1..4 {
+            assert!((e[m] / e[m - 1] - 0.5).abs() < 1e-3, "{e:?}");
+        }
+        // full gain: the first fine move's secant gives the true gain along the error's
+        // direction (here the only one), so the second fine move lands on the target
+        let (e, changed) = errors(1.0);
+        assert!(!changed, "nothing is learned in mature operation");
+        assert!(
+            (e[1] / e[0] - 0.5).abs() < 1e-3,
+            "the first fine move is the paper's"
+        );
+        assert!(e[2] < 1e-3 * e[0], "{e:?}");
+        // the project's gain: part of the way, every move better than without
+        let (e3, _) = errors(Config::project_default().stage1.trial_secant);
+        let (e0, _) = errors(0.0);
+        assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
+    }
 }

@@ -150,6 +150,7 @@ struct Phases {
     selection: Stat,
     coarse: Stat,
     mean_jacobian_fine: Stat,
+    secant_fine: Stat,
     falloff: Stat,
 }
 
@@ -162,6 +163,7 @@ impl Phases {
             selection: Stat::new(),
             coarse: Stat::new(),
             mean_jacobian_fine: Stat::new(),
+            secant_fine: Stat::new(),
             falloff: Stat::new(),
         }
     }
@@ -216,6 +218,27 @@ impl Phases {
                 cfg.pressure_limit,
             ));
         });
+        // a mature fine move after the first: the trial's average corrected by the last
+        // move's secant (StageConfig::trial_secant), then the fine output
+        let mut a_bar = rules::mean_jacobian(net, ranking, &alpha, cfg.fine_ranks as usize);
+        let dp = [0.02, -0.01, 0.015, 0.0, -0.02];
+        let n_secant = counter.measure(|| {
+            let _ = rules::secant_update(
+                &mut a_bar,
+                cfg.trial_secant,
+                core::hint::black_box(&dp),
+                core::hint::black_box(&seen),
+                cfg.min_dv,
+            );
+            core::hint::black_box(rules::fine_output(
+                &[0.1; 5],
+                &a_bar,
+                v,
+                core::hint::black_box(&seen),
+                cfg.pressure_limit,
+            ));
+        });
+        self.secant_fine.add(n_secant);
         let t = stage.learning_step() + 1;
         let n_falloff = counter.measure(|| {
             core::hint::black_box(Falloff::<RANKS>::compute_by_blocks(core::hint::black_box(
@@ -241,6 +264,9 @@ impl Phases {
         self.coarse.print("coarse output (rules::coarse_output)");
         self.mean_jacobian_fine
             .print("mean Jacobian + fine output (rules::mean_jacobian + fine_output)");
+        self.secant_fine.print(
+            "secant correction + fine output (mature fine moves after the first: rules::secant_update + fine_output)",
+        );
         self.falloff.print(
             "neighbourhood falloff (rules::Falloff::compute_by_blocks, each learning begin: sigma varies)",
         );
@@ -415,9 +441,15 @@ fn fail(what: &str) -> ! {
     loop {}
 }
 
+/// Prints where the panic happened, not its message: formatting the message would keep
+/// `core::fmt`'s float formatting in flash (about 15 KiB, for messages of checks that cannot
+/// fail in this image); the location finds the check.
 #[panic_handler]
 fn panic(info: &PanicInfo) -> ! {
-    hprintln!("PANIC: {}", info);
+    match info.location() {
+        Some(l) => hprintln!("PANIC at {}:{}", l.file(), l.line()),
+        None => hprintln!("PANIC"),
+    }
     debug::exit(debug::EXIT_FAILURE);
     loop {}
 }

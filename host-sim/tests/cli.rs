@@ -109,6 +109,15 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
     ] {
         assert!(d.get(key).is_some(), "deployment lacks {key}");
     }
+    // simulated time per target (issue 16): every move of both networks' trials is one
+    // settle of 1.2 s before its capture (sim.toml's settle_s), nothing else advances the
+    // plant's clock within a trial: (2 + fine moves of both) x 1.2 s
+    let moves = json["fine_moves_mean"].as_f64().unwrap();
+    let time = json["sim_time_per_target_s"].as_f64().unwrap();
+    assert!(
+        (time - 1.2 * (2.0 + 2.0 * moves)).abs() < 1e-3 * time,
+        "{time} s for {moves} fine moves per network"
+    );
     let curve = json["learning_curve"].as_array().unwrap();
     assert!(!curve.is_empty() && curve[0].get("stage1_true_px").is_some());
     assert_eq!(json["stage1_error_px"].as_array().unwrap().len(), 20);

@@ -142,6 +142,8 @@ pub enum Ablation {
     NoPriming,
     /// No fine moves (coarse move only).
     NoFine,
+    /// No secant correction of the averaged Jacobian within a trial (mature operation).
+    NoTrialSecant,
 }
 
 impl Preset {
@@ -175,6 +177,7 @@ impl From<Ablation> for trn_controller::presets::Ablation {
             Ablation::NoNeighbourhood => Self::NoNeighbourhood,
             Ablation::NoPriming => Self::NoPriming,
             Ablation::NoFine => Self::NoFine,
+            Ablation::NoTrialSecant => Self::NoTrialSecant,
         }
     }
 }

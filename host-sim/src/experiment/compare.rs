@@ -31,6 +31,8 @@ pub struct SeedFigures {
     pub fine_moves_stop_rule: f32,
     /// Combined final error with the stop rule, noise-free.
     pub final_true_px_stop_rule: f32,
+    /// Simulated time per target with the stop rule, both networks (s).
+    pub sim_s_per_target_stop_rule: f32,
     /// Grasp success rate.
     pub grasp_success: f32,
     /// Failed trials (whole run).
@@ -58,6 +60,7 @@ impl SeedFigures {
             moves_to_2px: d.moves_to_2px_mean,
             fine_moves_stop_rule: r.fine_moves_mean,
             final_true_px_stop_rule: r.final_error_true_px,
+            sim_s_per_target_stop_rule: r.sim_time_per_target_s,
             grasp_success: r.grasp_success_rate,
             failed_trials: r.failed_trials,
             snapshot_coarse_px: (
@@ -141,12 +144,13 @@ impl Entry {
 }
 
 /// The configurations of the table.
-pub const CONFIGS: [Entry; 7] = [
+pub const CONFIGS: [Entry; 8] = [
     Entry::trn(Preset::Project, Ablation::None),
     Entry::trn(Preset::Paper, Ablation::None),
     Entry::trn(Preset::Project, Ablation::NoNeighbourhood),
     Entry::trn(Preset::Project, Ablation::NoPriming),
     Entry::trn(Preset::Project, Ablation::NoFine),
+    Entry::trn(Preset::Project, Ablation::NoTrialSecant),
     Entry {
         preset: Preset::Project,
         ablation: Ablation::None,
@@ -205,15 +209,15 @@ pub fn run(a: &CompareArgs) -> Result<()> {
 
 /// The markdown table of `rows` (mean ± standard deviation over the seeds).
 pub fn print_table(rows: &[Row]) {
-    println!("| configuration | training trials | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | grasp success % | failed trials |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| configuration | training trials | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | simulated s per target, stop rule | grasp success % | failed trials |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let col = |f: &dyn Fn(&SeedFigures) -> f32| -> Vec<f32> { r.seeds.iter().map(f).collect() };
         let at = |m: usize| col(&|s| s.combined_true_px.get(m).copied().unwrap_or(f32::NAN));
         let last = col(&|s| s.combined_measured_px.last().copied().unwrap_or(f32::NAN));
         let floor = col(&|s| s.noise_floor_px);
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
             r.name,
             r.seeds.first().map_or(0, |s| s.training_trials),
             ms(&at(0)),
@@ -228,6 +232,7 @@ pub fn print_table(rows: &[Row]) {
             px(spread(&floor).0),
             ms(&col(&|s| s.moves_to_2px)),
             ms(&col(&|s| s.fine_moves_stop_rule)),
+            ms(&col(&|s| s.sim_s_per_target_stop_rule)),
             ms(&col(&|s| 100.0 * s.grasp_success)),
             r.seeds.iter().map(|s| s.failed_trials).sum::<usize>(),
         );

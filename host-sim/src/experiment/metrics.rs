@@ -288,6 +288,7 @@ fn evaluation(report: &mut Report, log: &RunLog, targets: usize) {
     report.final_error_true_px = mean(&col(&|a, b| combined(a.final_true_px(), b.final_true_px())));
     report.noise_floor_px = mean(&col(&|a, b| combined(a.noise_floor_px, b.noise_floor_px)));
     report.fine_moves_mean = (mean(&m1) + mean(&m2)) / 2.0;
+    report.sim_time_per_target_s = mean(&col(&|a, b| a.sim_time_s + b.sim_time_s));
     report.eval = eval;
 }
 

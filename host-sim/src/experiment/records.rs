@@ -104,6 +104,8 @@ pub struct TrialRecord {
     pub gave_up: bool,
     /// Grasp score at the gripper's close.
     pub grasp: Option<GraspScore>,
+    /// The plant's simulated time when the trial's start was sent (s), after the set-up.
+    pub started_s: f64,
 }
 
 impl TrialRecord {
@@ -113,6 +115,15 @@ impl TrialRecord {
             1 => r.stage <= 1,
             s => r.stage == s,
         })
+    }
+
+    /// Simulated time from the trial's start to its last capture (s): every pressure ramp,
+    /// settle and capture of every move the controller made, including any extra command
+    /// a method adds (0 without a capture).
+    pub fn sim_time_s(&self) -> f64 {
+        self.captures
+            .last()
+            .map_or(0.0, |c| (c.time_s - self.started_s).max(0.0))
     }
 
     /// True when any stage ended at the cap on fine moves.

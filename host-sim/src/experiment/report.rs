@@ -211,6 +211,9 @@ pub struct Report {
     pub noise_floor_px: f32,
     /// Mean fine moves per network trial in the held-out evaluation.
     pub fine_moves_mean: f32,
+    /// Mean simulated time per held-out target in the same evaluation: both networks'
+    /// trials, every move's pressure ramp, settle and capture (s).
+    pub sim_time_per_target_s: f32,
     /// Trials (training and evaluation) that ended at the cap on fine moves.
     pub correction_cap_hits: usize,
     /// Trials the controller aborted (a light out of view or hidden, a rejected input); their

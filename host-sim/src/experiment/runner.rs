@@ -268,6 +268,7 @@ where
             aborted: false,
             gave_up: false,
             grasp: None,
+            started_s: self.rig.plant().time_s(),
         };
         let Some(target) = set_up else {
             return Ok(rec);

@@ -24,6 +24,9 @@ pub struct StageScore {
     pub pose_error_mm: f32,
     /// Orientation error of the same (degrees).
     pub pose_error_deg: f32,
+    /// Simulated time of the trial's moves (s; [`TrialRecord::sim_time_s`], both stages' in
+    /// a grasp).
+    pub sim_time_s: f32,
 }
 
 impl StageScore {
@@ -59,6 +62,7 @@ fn score(rec: &TrialRecord, stage: u8, noise_floor_px: f32) -> StageScore {
         noise_floor_px,
         pose_error_mm: f32::NAN,
         pose_error_deg: f32::NAN,
+        sim_time_s: rec.sim_time_s() as f32,
         ..Default::default()
     }
 }

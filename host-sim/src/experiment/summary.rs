@@ -159,6 +159,11 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
             px(r.fine_moves_mean),
             "2-3",
         );
+        row(
+            "  simulated time per target, both networks (s)",
+            px(r.sim_time_per_target_s),
+            "",
+        );
         let pair = |a: f32, b: f32| format!("{} / {}", px(a), px(b));
         row(
             "  stage 1 / stage 2 final error (px)",

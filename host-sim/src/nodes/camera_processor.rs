@@ -36,6 +36,8 @@ pub struct Capture {
     pub sight: Sight,
     /// The gripper's pose when the reading was taken (ground truth).
     pub pose: Pose,
+    /// The plant's simulated time when the reading was taken, after the settle (s).
+    pub time_s: f64,
 }
 
 /// The camera processor (both cameras).
@@ -163,6 +165,7 @@ impl CameraProcessor {
             seq: req.seq,
             sight,
             pose: plant.gripper_pose(),
+            time_s: plant.time_s(),
         }))
     }
 }

@@ -81,7 +81,7 @@ pub struct Emergency {
 /// Number of controller presets on the wire (`SessionConfig::preset` is below it).
 pub const PRESET_CODES: u8 = 3;
 /// Number of ablations on the wire (`SessionConfig::ablation` is below it).
-pub const ABLATION_CODES: u8 = 4;
+pub const ABLATION_CODES: u8 = 5;
 /// Number of control laws on the wire (`SessionConfig::law` is below it).
 pub const LAW_CODES: u8 = 3;
 /// Largest image side a session may announce, in pixels.
@@ -97,7 +97,8 @@ pub struct SessionConfig {
     pub seed: u64,
     /// Controller preset: 0 project, 1 paper, 2 lifelong (`trn_controller::presets::Preset`).
     pub preset: u8,
-    /// Ablation: 0 none, 1 no neighbourhood, 2 no priming, 3 no fine moves.
+    /// Ablation: 0 none, 1 no neighbourhood, 2 no priming, 3 no fine moves, 4 no secant
+    /// correction within a trial.
     pub ablation: u8,
     /// Camera image width, pixels (the span of the initial stage-1/2 weights).
     #[serde(with = "postcard::fixint::le")]
