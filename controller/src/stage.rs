@@ -111,9 +111,7 @@ struct Trial<const D: usize, const M: usize> {
     v_prev: [f32; D],
     /// The last pressure applied.
     p_last: [f32; M],
-    /// In mature operation, the averaged Jacobian of the trial's fine moves (computed for the
-    /// first, then corrected by the secant of each move), once `a_held`.
-    a_bar: [[f32; D]; M],
+    /// In mature operation, whether [`Stage::a_bar`] holds this trial's averaged Jacobian.
     a_held: bool,
     outcome: StageOutcome,
 }
@@ -134,6 +132,10 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     neighbour_range: f32,
     phase: Phase,
     trial: Trial<D, M>,
+    /// In mature operation, the averaged Jacobian of the trial's fine moves: computed for the
+    /// first, then corrected by the secant of each move (valid while `trial.a_held`; kept
+    /// outside [`Trial`] so that starting a trial does not write it).
+    a_bar: [[f32; D]; M],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -160,10 +162,10 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
-                a_bar: [[0.0; D]; M],
                 a_held: false,
                 outcome: ZERO_OUTCOME,
             },
+            a_bar: [[0.0; D]; M],
         }
     }
 
@@ -364,7 +366,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
-            a_bar: [[0.0; D]; M],
             a_held: false,
             outcome: StageOutcome {
                 t,
@@ -498,11 +499,11 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 if gain > 0.0 {
                     let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
                     let min_dv = self.cfg.min_dv;
-                    if rules::secant_update(&mut tr.a_bar, gain, &dp, &dv, min_dv).is_err() {
+                    if rules::secant_update(&mut self.a_bar, gain, &dp, &dv, min_dv).is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
                 }
-                tr.a_bar
+                self.a_bar
             }
             None => {
                 let a = rules::mean_jacobian(
@@ -512,7 +513,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     self.cfg.fine_ranks as usize,
                 );
                 if !tr.learn {
-                    tr.a_bar = a;
+                    self.a_bar = a;
                     tr.a_held = true;
                 }
                 a

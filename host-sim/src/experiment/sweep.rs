@@ -111,6 +111,14 @@ pub const VARIANTS: &[Variant] = &[
             width(c, 0.25);
         },
     },
+    Variant {
+        name: "realistic, hysteresis width 25 %, loop width independent of the load",
+        apply: |c| {
+            *c = SimConfig::realistic();
+            width(c, 0.25);
+            c.realism.load_width_gain = 0.0;
+        },
+    },
 ];
 
 /// One variant's figures over the seeds.
