@@ -251,13 +251,16 @@ const AVERAGED_RANKS: u16 = 64;
 /// 8.30 in the stage-1 form), `A_bar += g (dp - A_bar dv) dv^T / ||dv||^2`, from the move
 /// just made; the tables are not touched (nothing is learned in mature operation), and the
 /// correction ends with the trial. Skipped when `||dv|| < min_dv`. While learning, the
-/// Jacobian update itself plays this part. Measured (tuning seeds 1-8, 300 trials, fixed
-/// budget of 6 fine moves; gain 0 / 0.2 / 0.3 / 0.4 / 0.7 / 1): on the realistic plant the
-/// measured error after the budget 1.84 px (seeds 1-4) falls to 1.64 with gain 0.3, within
-/// 13 % of the floor, and gains of 0.2-0.4 are alike; gain 1 is worse after 2 fine moves
-/// (the first correction takes the camera noise and the play band at full weight). With
-/// 25 % hysteresis (ideal plant, seeds 1-4) 6.6 px (4.7x the floor) falls to 1.55 px
-/// (1.10x). Applied while learning too it changed nothing measurable (1.65 px); not done.
+/// Jacobian update itself plays this part. Measured against the literal reading (gain 0),
+/// 300 training trials, the fixed budget of 6 fine moves: tuning seeds 1-8, realistic plant,
+/// measured error after the budget 1.75 px (1.20x the camera-noise floor) against 1.63 px
+/// (1.12x) with gain 0.3, 1.62 / 1.64 px with 0.2 / 0.4; gain 1 (seeds 1-4) is worse after 2
+/// fine moves, 6.3 against 5.2 px (the first correction takes the camera noise and the play
+/// band at full weight). With a loop 25 % wide (ideal plant, seeds 1-4) 6.6 px (4.7x the
+/// floor) falls to 1.55 px (1.10x). Applied while learning too it changed nothing
+/// measurable (1.65 px); not done. Reported (seeds 100-109, `trn compare`, the ablation
+/// `no-trial-secant`): 1.72 px without it, 1.66 px with it; 4.06 and 3.95 stop-rule fine
+/// moves.
 const TRIAL_SECANT: f32 = 0.3;
 
 /// The project's deviations from the paper for one stage (see [`Config::project_default`]);
