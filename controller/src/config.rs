@@ -152,7 +152,8 @@ pub struct StageConfig {
     /// Below this `||dv||` (pixels) the Jacobian update is skipped ([`crate::Error::ZeroLengthDv`]).
     pub min_dv: f32,
     /// Gain of the trial's secant correction of the averaged Jacobian in mature operation
-    /// (`0` = off, the paper). A deviation: see [`TRIAL_SECANT`].
+    /// (`0` = off, the paper). A deviation, named and measured on the project's value
+    /// (`TRIAL_SECANT` in this module); the rule is [`crate::rules::secant_update`].
     pub trial_secant: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
