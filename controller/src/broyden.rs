@@ -1,5 +1,5 @@
 //! The classical alternative: uncalibrated visual servoing with a Broyden Jacobian, no
-//! training at all. One stage of it, with the same interface as the TRN's [`crate::Stage`]
+//! training at all. One stage of it, with the same interface as the TRN's [`crate::stage::Stage`]
 //! (a target in, pressures out, each observation back in), so that the two-stage grasp, the
 //! CAN node, every bus and the firmware run it unchanged.
 //!
