@@ -111,8 +111,6 @@ struct Trial<const D: usize, const M: usize> {
     v_prev: [f32; D],
     /// The last pressure applied.
     p_last: [f32; M],
-    /// In mature operation, whether [`Stage::a_bar`] holds this trial's averaged Jacobian.
-    a_held: bool,
     outcome: StageOutcome,
 }
 
@@ -133,8 +131,8 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     phase: Phase,
     trial: Trial<D, M>,
     /// In mature operation, the averaged Jacobian of the trial's fine moves: computed for the
-    /// first, then corrected by the secant of each move (valid while `trial.a_held`; kept
-    /// outside [`Trial`] so that starting a trial does not write it).
+    /// first, then corrected by the secant of each move (valid from the trial's second fine
+    /// move on; kept outside [`Trial`] so that starting a trial does not write it).
     a_bar: [[f32; D]; M],
 }
 
@@ -162,7 +160,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
-                a_held: false,
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
@@ -366,7 +363,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
-            a_held: false,
             outcome: StageOutcome {
                 t,
                 learned: learn,
@@ -491,10 +487,11 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let tr = &mut self.trial;
         let a_bar = match a_bar {
             Some(a) => a,
-            None if tr.a_held => {
-                // mature operation after the first fine move: the tables and the ranking
-                // are unchanged, so the average is the one held; corrected by the secant of
-                // the move just made (`StageConfig::trial_secant`)
+            None if !tr.learn && tr.outcome.fine_moves > 0 => {
+                // mature operation after the first fine move (this observation followed a
+                // fine move): the tables and the ranking are unchanged, so the average is the
+                // one held since the first; corrected by the secant of the move just made
+                // (`StageConfig::trial_secant`)
                 let gain = self.cfg.trial_secant;
                 if gain > 0.0 {
                     let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
@@ -513,8 +510,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     self.cfg.fine_ranks as usize,
                 );
                 if !tr.learn {
+                    // held for the trial's later fine moves
                     self.a_bar = a;
-                    tr.a_held = true;
                 }
                 a
             }
@@ -601,10 +598,7 @@ mod tests {
                 StageStep::Done(o) => assert_eq!(o.skipped_updates, 0),
             }
         }
-        (
-            out,
-            s.net().w != before.w || s.net().a != before.a || s.net().p != before.p,
-        )
+        (out, *s.net() != before)
     }
 
     #[test]
