@@ -11,13 +11,17 @@ step main-job main_job
 step results-bands bash scripts/results.sh --check
 step dbc-interop bash protocol/tools/check_dbc.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
+prune_if_low protocol/fuzz/target
 # Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan (issue 6).
 step vcan-hil bash scripts/vcan/run.sh
+prune_if_low target/static
 # Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.
 step cross-build bash scripts/cross/check-controller.sh
+prune_if_low target/cross
 step firmware-budget bash scripts/cross/budget.sh
 # The compact build (i16 tables): its unit tests, and its error within 5 % of the f32 build's.
 step compact-tables cargo test --release -p trn-controller --features compact
 step compact-accuracy bash scripts/compact.sh --check
+prune_if_low target/compact
 # Processor-in-the-loop: the simulator trains the firmware in QEMU; curves match the host build.
 step firmware-pil bash scripts/cross/pil.sh 30

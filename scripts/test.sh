@@ -29,6 +29,23 @@ step() {
     fi
 }
 
+# Disk: a clean clone's builds take about 6 GB (the host's release, debug and compact builds,
+# the static vcan executables, the cross-built crates, the firmware variants). When less than
+# TRN_TEST_MIN_FREE_GB (default 4) is left after a step, the build directories that only the
+# finished steps use are removed (they are caches: the next run rebuilds them).
+MIN_FREE_KB=$((${TRN_TEST_MIN_FREE_GB:-4} * 1024 * 1024))
+prune_if_low() { # DIR...: build directories no later step uses
+    local avail
+    avail=$(df --output=avail -k "$ROOT" | tail -1)
+    [ "$avail" -lt "$MIN_FREE_KB" ] || return 0
+    for dir in "$@"; do
+        if [ -d "$ROOT/$dir" ]; then
+            echo "disk: $((avail / 1024)) MB free (< $((MIN_FREE_KB / 1024)) MB): removing the build cache $dir"
+            rm -rf "${ROOT:?}/$dir"
+        fi
+    done
+}
+
 fmt() { cargo fmt --all -- --check && rustfmt --check --edition 2021 firmware/src/*.rs; }
 # every feature but the compact build's (`compact` switches the controller's tables to i16
 # for the whole build: linted here with all features, tested in its own steps)
@@ -41,6 +58,7 @@ unit() { cargo test --workspace --features "$FEATURES" --release; }
 
 step fmt fmt
 step clippy clippy
+prune_if_low target/debug
 step unit-and-integration unit
 
 # shellcheck source=scripts/test-steps.sh

@@ -17,8 +17,7 @@ set -euo pipefail
 source "$(dirname "$0")/env.sh"
 bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
 cd "$root/firmware"
-$CARGO build --quiet --release --target thumbv7em-none-eabihf
-elf=target/thumbv7em-none-eabihf/release/trn-firmware
+elf=$(build_firmware bench thumbv7em-none-eabihf)
 sections() {
     arm-none-eabi-size -A "$1" | awk '
         $1==".data"{d=$2} $1==".bss"{b=$2} $1==".uninit"{u=$2}
@@ -27,8 +26,7 @@ sections() {
 }
 read -r ram flash < <(sections "$elf")
 # the full firmware (the controller node, SLCAN over UART) is what has to fit
-bash "$root/scripts/cross/pil.sh" --build-only
-read -r ram_pil flash_pil < <(sections target/pil/thumbv7em-none-eabihf/release/trn-firmware)
+read -r ram_pil flash_pil < <(sections "$(build_firmware pil thumbv7em-none-eabihf pil)")
 rc=0
 out=$(timeout 120 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
     -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" 2>&1) || rc=$?
@@ -43,11 +41,9 @@ read -r learn_mean learn_max <<< "$learn"
 read -r control_mean control_max <<< "$control"
 
 # the compact build: i16 tables (benchmark and the firmware with the CAN node)
-CARGO_TARGET_DIR=target/compact $CARGO build --quiet --release --target thumbv7em-none-eabihf --features compact
-elf_c=target/compact/thumbv7em-none-eabihf/release/trn-firmware
+elf_c=$(build_firmware compact-bench thumbv7em-none-eabihf compact)
 read -r ram_c flash_c < <(sections "$elf_c")
-CARGO_TARGET_DIR=target/pil-compact $CARGO build --quiet --release --target thumbv7em-none-eabihf --features pil,compact
-read -r ram_pc flash_pc < <(sections target/pil-compact/thumbv7em-none-eabihf/release/trn-firmware)
+read -r ram_pc flash_pc < <(sections "$(build_firmware pil-compact thumbv7em-none-eabihf pil,compact)")
 rc=0
 out_c=$(timeout 300 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
     -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf_c" 2>&1) || rc=$?
@@ -62,12 +58,12 @@ finite_c=$(echo "$out_c" | sed -n 's/^tables finite after learning: \(.*\)/\1/p'
 # Cortex-M4 board (QEMU's M0 boards have 16 KiB of RAM; ARMv6-M code is a subset of
 # ARMv7-M, so the counts are the soft-float build's instructions; an M0's cycles per
 # instruction differ)
-$CARGO build --quiet --release --target thumbv6m-none-eabi
-read -r ram6 flash6 < <(sections target/thumbv6m-none-eabi/release/trn-firmware)
+elf6=$(build_firmware thumbv6m-bench thumbv6m-none-eabi)
+read -r ram6 flash6 < <(sections "$elf6")
 rc=0
 out6=$(timeout 300 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
     -semihosting-config enable=on,target=native -icount shift=0 \
-    -kernel target/thumbv6m-none-eabi/release/trn-firmware 2>&1) || rc=$?
+    -kernel "$elf6" 2>&1) || rc=$?
 [ $rc -eq 0 ] || { echo "$out6"; echo "budget: FAIL: the thumbv6m benchmark in QEMU exited with $rc" >&2; exit 1; }
 control6=$(echo "$out6" | sed -n 's/^stage1 control step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \/ \2/p')
 learn6=$(echo "$out6" | sed -n 's/^stage1 learning step.*mean \([0-9]*\) max \([0-9]*\).*/\1 \/ \2/p')

@@ -3,3 +3,16 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 export RUSTC=/usr/bin/rustc RUSTC_BOOTSTRAP=1
 CARGO=/usr/bin/cargo
 QEMU_ARM="$root/.vm/qemu-arm/root/usr/bin/qemu-system-arm"
+# Every firmware variant builds in the one target directory `firmware/target` (shared core,
+# nalgebra and build scripts: one directory per variant cost 0.5 GB of disk each); cargo
+# keeps each feature set's artifacts apart but writes the linked binary to one path, so each
+# variant's ELF is copied to `firmware/target/elf/trn-firmware-VARIANT` right after its build.
+#   build_firmware VARIANT TARGET [FEATURES]    prints the ELF's path
+build_firmware() {
+    local variant=$1 target=$2 features=${3:-}
+    (cd "$root/firmware" && $CARGO build --quiet --release --target "$target" \
+        ${features:+--features "$features"}) >&2 || return 1
+    mkdir -p "$root/firmware/target/elf"
+    cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
+    echo "$root/firmware/target/elf/trn-firmware-$variant"
+}

@@ -11,7 +11,7 @@
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
-(cd "$root/firmware" && CARGO_TARGET_DIR=target/pil $CARGO build --quiet --release --target thumbv7em-none-eabihf --features pil)
+build_firmware pil thumbv7em-none-eabihf pil >/dev/null
 [ "${1:-}" = "--build-only" ] && exit 0
 trials="${1:-30}"
 out="$root/out/pil"

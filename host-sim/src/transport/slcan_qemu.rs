@@ -48,7 +48,7 @@ pub fn qemu_arm() -> PathBuf {
 pub fn firmware_elf() -> PathBuf {
     match std::env::var_os("TRN_FIRMWARE") {
         Some(p) => p.into(),
-        None => repo().join("firmware/target/pil/thumbv7em-none-eabihf/release/trn-firmware"),
+        None => repo().join("firmware/target/elf/trn-firmware-pil"),
     }
 }
 
