@@ -10,7 +10,7 @@ QEMU_ARM="$root/.vm/qemu-arm/root/usr/bin/qemu-system-arm"
 #   build_firmware VARIANT TARGET [FEATURES]    prints the ELF's path
 build_firmware() {
     local variant=$1 target=$2 features=${3:-}
-    (cd "$root/firmware" && $CARGO build --quiet --release --target "$target" \
+    (cd "$root/firmware" && CARGO_TARGET_DIR="$root/firmware/target" $CARGO build --quiet --release --target "$target" \
         ${features:+--features "$features"}) >&2 || return 1
     mkdir -p "$root/firmware/target/elf"
     cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
