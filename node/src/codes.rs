@@ -44,6 +44,20 @@ pub const CONFIG_MISMATCH: u32 = 2;
 /// `CONFIG_REJECTED` detail: the controller refused the configuration (`set_config`).
 pub const CONFIG_INVALID: u32 = 3;
 
+/// True for the codes the node sends as the reason of an abort, right before
+/// `TRIAL_ABORTED`; refusals that start nothing (`OUT_OF_ORDER`, `MISSING_SUPERVISION`,
+/// `CONFIG_REJECTED`), `GRIPPER_TIMEOUT` and `TRIAL_ABORTED` itself are not.
+pub fn aborts_trial(code: u16) -> bool {
+    matches!(
+        code,
+        INVALID_OBSERVATION
+            | OBSERVATION_TIMEOUT
+            | CONTROLLER_ERROR
+            | SERVO_NOT_NORMAL
+            | SERVO_TIMEOUT
+    )
+}
+
 /// A stable numeric code for each controller error (sent in `ErrorReport.detail`).
 pub fn controller_error_code(e: &CtrlError) -> u32 {
     match e {

@@ -38,7 +38,11 @@ pub fn failure(r: &TrialRecord) -> Option<String> {
         return Some("no answer from the controller to the target and its repeats".into());
     }
     if r.aborted {
-        let reason = r.errors.iter().find(|(c, _)| *c != codes::TRIAL_ABORTED);
+        // the reason is the error the controller sent right before the abort; refusals of
+        // a lost half of the trial's start (`OUT_OF_ORDER`, `MISSING_SUPERVISION`) and a
+        // gripper's time-out of an earlier grasp abort nothing, and a reason lost on the
+        // bus leaves only the abort
+        let reason = r.errors.iter().rev().find(|(c, _)| codes::aborts_trial(*c));
         return Some(match reason {
             Some((codes::INVALID_OBSERVATION, d)) => {
                 let status = ["valid", "out of view", "occluded", "not detected"];
@@ -48,7 +52,7 @@ pub fn failure(r: &TrialRecord) -> Option<String> {
             Some((codes::OBSERVATION_TIMEOUT, d)) => format!("no observation for capture {d}"),
             Some((codes::CONTROLLER_ERROR, d)) => format!("controller rejected an input ({d:#x})"),
             Some((c, d)) => format!("aborted (error {c:#06x}, detail {d})"),
-            None => "aborted".into(),
+            None => "aborted (its reason was lost on the bus)".into(),
         });
     }
     if r.fine_moves != trn_protocol::FINE_MOVES_POLICY {
@@ -359,4 +363,59 @@ fn grasp_summary(log: &RunLog, phase: Phase, grasps: usize) -> GraspSummary {
     g.error_deg = mean(&gdeg);
     g.fine_moves = mean(&gmoves);
     g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::records::TrialKind;
+    use crate::experiment::targets::Target;
+
+    fn aborted(errors: &[(u16, u32)]) -> TrialRecord {
+        TrialRecord {
+            trial: 7,
+            kind: TrialKind::Grasp { learn: false },
+            phase: Phase::Grasping,
+            fine_moves: trn_protocol::FINE_MOVES_POLICY,
+            target: Target::NONE,
+            target_seen: true,
+            captures: vec![],
+            reports: vec![],
+            errors: errors.to_vec(),
+            aborted: true,
+            gave_up: false,
+            grasp: None,
+            started_s: 0.0,
+        }
+    }
+
+    /// The reason of an abort is the error sent right before it, not a refusal of a lost
+    /// half of the start that came earlier in the same trial.
+    #[test]
+    fn an_abort_is_attributed_to_its_reason_not_to_an_earlier_refusal() {
+        let occluded = (1 << 8) | 2; // point 1, `PointStatus::Occluded`
+        let r = aborted(&[
+            (codes::OUT_OF_ORDER, 7),
+            (codes::INVALID_OBSERVATION, occluded),
+            (codes::TRIAL_ABORTED, 7),
+        ]);
+        assert_eq!(failure(&r).unwrap(), "lost light: point 1 occluded");
+        let r = aborted(&[(codes::OUT_OF_ORDER, 7), (codes::TRIAL_ABORTED, 7)]);
+        assert_eq!(
+            failure(&r).unwrap(),
+            "aborted (its reason was lost on the bus)"
+        );
+        let r = aborted(&[
+            (codes::SERVO_TIMEOUT, (3 << 16) | 12),
+            (codes::TRIAL_ABORTED, 7),
+        ]);
+        assert_eq!(
+            failure(&r).unwrap(),
+            format!(
+                "aborted (error {:#06x}, detail {})",
+                codes::SERVO_TIMEOUT,
+                (3 << 16) | 12
+            )
+        );
+    }
 }

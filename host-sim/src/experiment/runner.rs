@@ -306,13 +306,20 @@ where
                 Event::Controller(Message::Heartbeat(_)) => continue, // alive, not an answer
                 Event::Captured(c) => rec.captures.push(*c),
                 Event::Gripper(close) => {
-                    // scored at the first close (a repeated command closes nothing more)
-                    if close && !closed {
+                    // A grasp is scored at the first close after the controller reported
+                    // both halves of this trial (it sends the close right after them). A
+                    // close before that belongs to an earlier grasp: the controller repeats
+                    // a close until the gripper confirms it, and answers every repeat of a
+                    // finished trial's start with its final messages again, so copies of
+                    // that close can arrive after this trial began, at another pose. A
+                    // close of this trial that overtook a lost report comes again with the
+                    // report, when the start is repeated.
+                    if close && !closed && rec.reports.len() >= expect_reports {
                         if let Some(cyl) = rec.target.cylinder.as_ref() {
                             rec.grasp = Some(self.rig.plant().grasp_score(cyl));
                         }
+                        closed = true;
                     }
-                    closed |= close;
                 }
                 Event::Controller(Message::TrialReport(r)) if r.trial == trial => {
                     if !rec.reports.iter().any(|x| x.stage == r.stage) {
@@ -323,7 +330,17 @@ where
                     rec.errors.push((e.code, e.detail));
                     if e.code == codes::TRIAL_ABORTED && e.detail == trial {
                         rec.aborted = true;
-                        return Ok(rec);
+                        let reason = rec.errors.iter().any(|(c, _)| codes::aborts_trial(*c));
+                        if reason || tries >= self.timing.retries {
+                            return Ok(rec);
+                        }
+                        // the reason (sent right before the abort) was lost: a repeat of the
+                        // start is answered with both again
+                        tries += 1;
+                        self.stats.target_repeats += 1;
+                        self.send_all(&start)?;
+                        since = Instant::now();
+                        continue;
                     }
                     // a refusal (a lost half of the trial's start) is no progress: the
                     // start is repeated at the timeout
