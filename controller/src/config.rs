@@ -189,42 +189,19 @@ pub struct Config {
     pub broyden: BroydenConfig,
 }
 
-/// The control law of both stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
-#[repr(u8)]
-pub enum Law {
-    /// The topology representing network (the chapter's method).
-    #[default]
-    Trn = 0,
-    /// Uncalibrated visual servoing with a Broyden Jacobian, no training
-    /// ([`crate::broyden`]): the classical alternative, for comparison.
-    Broyden = 1,
-    /// A model-based reference outside this crate (the simulator's nominal inverse
-    /// kinematics, host only): [`crate::Controller`] refuses it.
-    Model = 2,
-}
-
-impl Law {
-    /// Every law, in wire order (`SessionConfig::law`).
-    pub const ALL: [Law; 3] = [Law::Trn, Law::Broyden, Law::Model];
-
-    /// The law of a wire code.
-    pub const fn from_code(code: u8) -> Option<Law> {
-        match code {
-            0 => Some(Law::Trn),
-            1 => Some(Law::Broyden),
-            2 => Some(Law::Model),
-            _ => None,
-        }
-    }
-
-    /// Its name on the command line and in reports.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Law::Trn => "trn",
-            Law::Broyden => "broyden",
-            Law::Model => "model",
-        }
+crate::wire_enum! {
+    /// The control law of both stages.
+    #[derive(Default)]
+    pub enum Law {
+        /// The topology representing network (the chapter's method).
+        #[default]
+        Trn = 0 => "trn",
+        /// Uncalibrated visual servoing with a Broyden Jacobian, no training
+        /// ([`crate::broyden`]): the classical alternative, for comparison.
+        Broyden = 1 => "broyden",
+        /// A model-based reference outside this crate (the simulator's nominal inverse
+        /// kinematics, host only): [`crate::Controller`] refuses it.
+        Model = 2 => "model",
     }
 }
 

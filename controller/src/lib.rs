@@ -26,6 +26,8 @@
 // Index loops over the fixed small dimensions (D, M) read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+#[macro_use]
+mod wire;
 pub mod broyden;
 pub mod checkpoint;
 pub mod config;

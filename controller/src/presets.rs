@@ -3,90 +3,32 @@
 
 use crate::config::Config;
 
-/// A controller preset.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum Preset {
-    /// The project's defaults ([`Config::project_default`]).
-    Project = 0,
-    /// The chapter's printed constants, errata fixed ([`Config::paper`]).
-    Paper = 1,
-    /// The project's defaults with a floor on the rates ([`Config::lifelong`]).
-    Lifelong = 2,
-}
-
-/// An ablation of the method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum Ablation {
-    /// The full method.
-    None = 0,
-    /// Only the closest neuron answers and learns: a plain VQ look-up table.
-    NoNeighbourhood = 1,
-    /// No supervised priming.
-    NoPriming = 2,
-    /// No fine moves (coarse move only).
-    NoFine = 3,
-    /// No secant correction of the averaged Jacobian within a trial in mature operation
-    /// ([`crate::StageConfig::trial_secant`] 0, as in the paper).
-    NoTrialSecant = 4,
-}
-
-impl Preset {
-    /// Every preset, in wire order.
-    pub const ALL: [Preset; 3] = [Preset::Project, Preset::Paper, Preset::Lifelong];
-
-    /// The preset of a wire code.
-    pub const fn from_code(code: u8) -> Option<Preset> {
-        match code {
-            0 => Some(Preset::Project),
-            1 => Some(Preset::Paper),
-            2 => Some(Preset::Lifelong),
-            _ => None,
-        }
-    }
-
-    /// Its name on the command line and in reports.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Preset::Project => "project",
-            Preset::Paper => "paper",
-            Preset::Lifelong => "lifelong",
-        }
+crate::wire_enum! {
+    /// A controller preset.
+    pub enum Preset {
+        /// The project's defaults ([`Config::project_default`]).
+        Project = 0 => "project",
+        /// The chapter's printed constants, errata fixed ([`Config::paper`]).
+        Paper = 1 => "paper",
+        /// The project's defaults with a floor on the rates ([`Config::lifelong`]).
+        Lifelong = 2 => "lifelong",
     }
 }
 
-impl Ablation {
-    /// Every ablation, in wire order.
-    pub const ALL: [Ablation; 5] = [
-        Ablation::None,
-        Ablation::NoNeighbourhood,
-        Ablation::NoPriming,
-        Ablation::NoFine,
-        Ablation::NoTrialSecant,
-    ];
-
-    /// The ablation of a wire code.
-    pub const fn from_code(code: u8) -> Option<Ablation> {
-        match code {
-            0 => Some(Ablation::None),
-            1 => Some(Ablation::NoNeighbourhood),
-            2 => Some(Ablation::NoPriming),
-            3 => Some(Ablation::NoFine),
-            4 => Some(Ablation::NoTrialSecant),
-            _ => None,
-        }
-    }
-
-    /// Its name on the command line and in reports.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Ablation::None => "none",
-            Ablation::NoNeighbourhood => "no-neighbourhood",
-            Ablation::NoPriming => "no-priming",
-            Ablation::NoFine => "no-fine",
-            Ablation::NoTrialSecant => "no-trial-secant",
-        }
+crate::wire_enum! {
+    /// An ablation of the method.
+    pub enum Ablation {
+        /// The full method.
+        None = 0 => "none",
+        /// Only the closest neuron answers and learns: a plain VQ look-up table.
+        NoNeighbourhood = 1 => "no-neighbourhood",
+        /// No supervised priming.
+        NoPriming = 2 => "no-priming",
+        /// No fine moves (coarse move only).
+        NoFine = 3 => "no-fine",
+        /// No secant correction of the averaged Jacobian within a trial in mature operation
+        /// ([`crate::StageConfig::trial_secant`] 0, as in the paper).
+        NoTrialSecant = 4 => "no-trial-secant",
     }
 }
 
@@ -152,15 +94,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn codes_round_trip() {
-        for p in Preset::ALL {
-            assert_eq!(Preset::from_code(p as u8), Some(p));
+    fn codes_and_names_round_trip() {
+        for &p in Preset::ALL {
+            assert_eq!(Preset::from_code(p.code()), Some(p));
+            assert_eq!(Preset::from_name(p.name()), Some(p));
         }
-        for a in Ablation::ALL {
-            assert_eq!(Ablation::from_code(a as u8), Some(a));
+        for &a in Ablation::ALL {
+            assert_eq!(Ablation::from_code(a.code()), Some(a));
+            assert_eq!(Ablation::from_name(a.name()), Some(a));
         }
-        assert_eq!(Preset::from_code(3), None);
-        assert_eq!(Ablation::from_code(5), None);
+        for &l in crate::Law::ALL {
+            assert_eq!(crate::Law::from_code(l.code()), Some(l));
+            assert_eq!(crate::Law::from_name(l.name()), Some(l));
+        }
+        assert_eq!(Preset::from_code(Preset::COUNT), None);
+        assert_eq!(Ablation::from_code(Ablation::COUNT), None);
+        assert_eq!(crate::Law::from_code(crate::Law::COUNT), None);
+        assert_eq!(
+            (Preset::COUNT, Ablation::COUNT, crate::Law::COUNT),
+            (3, 5, 3)
+        );
     }
 
     #[test]

@@ -1,70 +1,16 @@
-//! The crate's one error type: every failure of the simulator, the runner, the transports
-//! and the command line, each with a message a user can act on.
+//! The command line's errors: the lab's, and drawing. A usage error (options that
+//! contradict each other, a meaningless count, an output that collides with an input) exits
+//! with 2, like clap's own; every other error with 1.
 
-use std::path::PathBuf;
+use trn_lab::LabError;
 
-/// Everything that can go wrong in `trn-sim`.
+/// What can end a command.
 #[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// A configuration value is wrong; the message names the key.
-    #[error("{0}")]
-    Config(String),
-    /// A joint index outside 0..5.
-    #[error("joint {0} does not exist (0..5)")]
-    NoSuchJoint(usize),
-    /// No valid target could be drawn.
-    #[error("no valid target after {0} draws: the cameras do not see the workspace")]
-    NoTarget(usize),
-    /// The controller sent nothing for too long.
-    #[error("bus silent: no frame from the controller for {0:.1} s (is the controller node running on this bus?)")]
-    BusSilent(f64),
-    /// The transport failed.
-    #[error("bus error: {0}")]
-    Bus(#[from] trn_protocol::Error),
-    /// The bus could not be opened, or the controller on it not started.
-    #[error("bus {bus}: {msg}")]
-    BusOpen {
-        /// The `--bus` argument.
-        bus: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// Reading or writing a file.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What happened.
-        source: std::io::Error,
-    },
-    /// A checkpoint.
-    #[error("checkpoint {path}: {source}")]
-    Checkpoint {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        source: trn_controller::Error,
-    },
-    /// More than a tenth of the evaluation's trials failed: its figures would mean little.
-    #[error("{failed} of {trials} evaluation trials failed (more than 10 %): {reasons}")]
-    TooManyFailures {
-        /// Failed evaluation trials.
-        failed: usize,
-        /// Evaluation trials.
-        trials: usize,
-        /// The reasons, counted.
-        reasons: String,
-    },
-    /// The controller on the bus failed checks of the conformance suite.
-    #[error("{failed} of {checks} conformance checks failed")]
-    NotConformant {
-        /// Failed checks.
-        failed: usize,
-        /// Checks run.
-        checks: usize,
-    },
-    /// Plotting.
+pub enum CliError {
+    /// The run, its plant or its bus.
+    #[error(transparent)]
+    Lab(#[from] LabError),
+    /// A plot could not be drawn.
     #[error("plot: {0}")]
     Plot(String),
     /// `--plot` in a build without the `plot` feature.
@@ -72,19 +18,21 @@ pub enum Error {
     NoPlot,
 }
 
-impl PartialEq for Error {
-    fn eq(&self, other: &Self) -> bool {
-        self.to_string() == other.to_string()
+impl From<trn_plant::PlantError> for CliError {
+    fn from(e: trn_plant::PlantError) -> Self {
+        CliError::Lab(e.into())
     }
 }
 
-/// The crate's result type.
-pub type Result<T> = std::result::Result<T, Error>;
-
-/// An `Io` error for `path`.
-pub fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
+impl CliError {
+    /// The process's exit code for this error.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Lab(LabError::Usage(_)) | CliError::NoPlot => 2,
+            _ => 1,
+        }
     }
 }
+
+/// The command line's result type.
+pub type Result<T> = std::result::Result<T, CliError>;

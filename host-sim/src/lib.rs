@@ -1,19 +1,20 @@
-//! `trn-sim`: the simulated SoftArm plant and the experiment around the TRN controller.
+//! `trn-sim`: the command line of the project, over the libraries: `trn` (train, evaluate,
+//! compare, sweep, lifelong, conformance), `controller-node` (the controller as a process
+//! on SocketCAN), `sim-pictures`; options ([`cli`]) turned into the lab's specifications
+//! ([`args`]), the progress bar and interrupts ([`progress`]), plots ([`plot`],
+//! [`picture`]).
 //!
-//! - [`plant`]: the plant: hysteretic pneumatic joints behind servo drives, kinematics,
-//!   stereo cameras, cylinders.
-//! - [`nodes`]: the plant's CAN nodes (servo drives, camera processor, gripper) as sans-IO
-//!   state machines.
-//! - [`experiment`]: the runner, the rig that serves the bus, scoring, reports, plots and
-//!   the `trn` command line.
-//! - [`transport`]: the bus forms and the controller's side of a run (thread, process,
-//!   firmware in QEMU).
+//! The layers below, each usable alone: `trn-plant` (the simulated arm and its CAN nodes),
+//! `trn-transport` (the buses and where the controller runs), `trn-lab` (runs, studies,
+//! reports).
 
+pub mod args;
+pub mod cli;
 mod error;
-pub mod experiment;
-pub mod nodes;
-pub mod plant;
-pub mod reference;
-pub mod transport;
+#[cfg(feature = "plot")]
+pub mod picture;
+#[cfg(feature = "plot")]
+pub mod plot;
+pub mod progress;
 
-pub use error::{Error, Result};
+pub use error::{CliError, Result};

@@ -237,7 +237,7 @@ fn meaningless_numbers_are_usage_errors() {
 fn outputs_that_cannot_be_written_fail_before_the_run() {
     // before the run: nothing was trained, so no summary was printed
     let out = trn(&["train", "--checkpoint-out", "/tmp", "--quiet"]);
-    fails_with(&out, "is a directory");
+    usage_error(&out, "is a directory");
     assert!(out.stdout.is_empty(), "the run went ahead");
     assert!(!std::path::Path::new("/tmp.tmp").exists());
     let out = trn(&["train", "--report", "/nonexistent/dir/r.json", "--quiet"]);

@@ -113,6 +113,23 @@ impl ControllerNode {
         self.trial
     }
 
+    /// When the node next needs a turn ([`ControllerNode::poll`]) if no frame arrives
+    /// before: the `now_ms` of its next heartbeat or of the repeat (or give-up) of the
+    /// request it waits on, whichever comes first (as quinn-proto's
+    /// `Connection::poll_timeout`). `None` before the first turn has scheduled a heartbeat.
+    /// A loop may sleep until then, or until a frame arrives.
+    pub fn poll_timeout(&self) -> Option<u32> {
+        let request = self.pending.deadline(self.cfg.reply_timeout_ms);
+        match (self.heartbeat_due_ms, request) {
+            (Some(h), Some(r)) => Some(if r.wrapping_sub(h) < u32::MAX / 2 {
+                h
+            } else {
+                r
+            }),
+            (h, r) => h.or(r),
+        }
+    }
+
     /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
     pub fn poll<C: Control + ?Sized>(&mut self, ctrl: &mut C, now_ms: u32, out: &mut Outbox) {
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);

@@ -8,25 +8,25 @@
 use std::sync::mpsc;
 use std::time::Duration;
 
+use trn_lab::schedule::Plan;
+use trn_lab::{run, Command, Report, RunSpec};
 use trn_protocol::bus::FaultConfig;
-use trn_sim::experiment::cli::{Ablation, Common, Preset};
-use trn_sim::experiment::report::Report;
-use trn_sim::experiment::run::{run_plan, Plan};
 
 const PLAN: Plan = Plan {
     snapshot_every: 0,
     ..Plan::new(60, 10, 10)
 };
 
-fn run(fd: bool, faults: Option<&str>) -> trn_sim::Result<Report> {
-    let common = Common {
-        fd,
-        eval_targets: PLAN.eval_targets,
-        grasps: PLAN.grasps,
-        faults: faults.map(|f| f.parse::<FaultConfig>().unwrap()),
-        ..Common::inproc(100, Preset::Project, Ablation::None)
-    };
-    run_plan(&common, PLAN, None, None, "faults")
+fn spec(seed: u64, plan: Plan, fd: bool, faults: Option<&str>) -> RunSpec {
+    let mut spec = RunSpec::new(Command::Train, seed);
+    spec.bus.fd = fd;
+    spec.bus.faults = faults.map(|f| f.parse::<FaultConfig>().unwrap());
+    spec.plan = plan;
+    spec
+}
+
+fn run(fd: bool, faults: Option<&str>) -> trn_lab::Result<Report> {
+    run::run_quietly(&spec(100, PLAN, fd, faults))
 }
 
 fn last(r: &Report) -> f32 {
@@ -111,13 +111,8 @@ fn heavy_loss_ends_with_a_result_or_a_clear_error() {
             snapshot_every: 0,
             ..Plan::new(10, 5, 2)
         };
-        let common = Common {
-            eval_targets: 5,
-            grasps: 2,
-            faults: Some("drop=0.2".parse().unwrap()),
-            ..Common::inproc(101, Preset::Project, Ablation::None)
-        };
-        let _ = tx.send(run_plan(&common, plan, None, None, "faults").map(|r| r.failed_trials));
+        let s = spec(101, plan, false, Some("drop=0.2"));
+        let _ = tx.send(run::run_quietly(&s).map(|r| r.failed_trials));
     });
     match rx.recv_timeout(Duration::from_secs(240)) {
         Ok(Ok(failed)) => eprintln!("20 % loss: completed, {failed} trials failed"),

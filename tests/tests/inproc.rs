@@ -1,45 +1,45 @@
-//! Host-in-the-loop over the in-process bus: the controller node in a thread, the simulator
-//! nodes and the runner in this one, every message through CAN frames.
+//! Host-in-the-loop over the in-process bus: the controller node and the simulator's nodes
+//! on one bus on a simulated clock, every message through CAN frames.
 
-use trn_sim::experiment::cli::{Ablation, Common, Preset};
-use trn_sim::experiment::run::{run_plan, Plan};
-
-fn common(seed: u64, fd: bool) -> Common {
-    Common {
-        fd,
-        eval_targets: 5,
-        grasps: 3,
-        ..Common::inproc(seed, Preset::Project, Ablation::None)
-    }
-}
+use std::rc::Rc;
+use trn_lab::schedule::Plan;
+use trn_lab::{run, Command, RunSpec};
+use trn_transport::WallClock;
 
 const PLAN: Plan = Plan::new(60, 5, 3);
 
+fn run_plan(seed: u64, fd: bool, plan: Plan) -> trn_lab::Report {
+    let mut spec = RunSpec::new(Command::Train, seed);
+    spec.bus.fd = fd;
+    spec.plan = plan;
+    run::run_quietly(&spec).unwrap()
+}
+
 #[test]
 fn same_seed_same_learning_curve_bit_for_bit() {
-    let a = run_plan(&common(7, false), PLAN, None, None, "test").unwrap();
-    let b = run_plan(&common(7, false), PLAN, None, None, "test").unwrap();
+    let a = run_plan(7, false, PLAN);
+    let b = run_plan(7, false, PLAN);
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(a.stage1_error_px.len(), 60);
     assert_eq!(bits(&a.stage1_error_px), bits(&b.stage1_error_px));
     assert_eq!(bits(&a.stage2_error_px), bits(&b.stage2_error_px));
     assert_eq!(a.fine_moves, b.fine_moves);
     assert_eq!(a.final_error_px.to_bits(), b.final_error_px.to_bits());
-    let c = run_plan(&common(8, false), PLAN, None, None, "test").unwrap();
+    let c = run_plan(8, false, PLAN);
     assert_ne!(bits(&a.stage1_error_px), bits(&c.stage1_error_px));
 }
 
 #[test]
 fn can_fd_carries_the_same_learning_curve_as_can_2_0() {
-    let a = run_plan(&common(3, false), PLAN, None, None, "test").unwrap();
-    let b = run_plan(&common(3, true), PLAN, None, None, "test").unwrap();
+    let a = run_plan(3, false, PLAN);
+    let b = run_plan(3, true, PLAN);
     assert_eq!(a.stage1_error_px, b.stage1_error_px);
     assert_eq!(a.stage2_error_px, b.stage2_error_px);
 }
 
 #[test]
 fn training_learns_and_grasps_are_scored() {
-    let r = run_plan(&common(1, false), Plan::new(120, 10, 5), None, None, "test").unwrap();
+    let r = run_plan(1, false, Plan::new(120, 10, 5));
     // Learning measured on frozen networks with a fixed move budget, not on end-of-trial
     // errors (those follow the tolerance schedule whether or not anything is learned):
     // fails when the tables do not learn.
@@ -73,21 +73,25 @@ fn training_learns_and_grasps_are_scored() {
 #[test]
 fn a_silent_bus_is_a_typed_error() {
     use std::time::Duration;
+    use trn_lab::records::{Phase, TrialKind};
+    use trn_lab::rig::Rig;
+    use trn_lab::runner::Runner;
+    use trn_lab::LabError as Error;
+    use trn_plant::{Plant, SimConfig};
     use trn_protocol::bus::InProcBus;
     use trn_protocol::BusMode;
-    use trn_sim::experiment::records::{Phase, TrialKind};
-    use trn_sim::experiment::rig::Rig;
-    use trn_sim::experiment::runner::Runner;
-    use trn_sim::plant::{Plant, SimConfig};
-    use trn_sim::Error;
     // no controller on this bus
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
-    let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
-    let timing = trn_sim::experiment::runner::Timing::new(
-        Duration::from_millis(50),
-        Duration::from_millis(200),
+    let rig = Rig::new(
+        bus.port(),
+        Rc::new(WallClock::start()),
+        plant,
+        BusMode::Classic,
+        Default::default(),
     );
+    let timing =
+        trn_lab::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(200));
     let mut s = Runner::new(rig, 1, timing);
     let _other = bus.port();
     let e = s
@@ -101,23 +105,27 @@ fn a_silent_bus_is_a_typed_error() {
 fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
     use embedded_can::blocking::Can;
     use std::time::Duration;
+    use trn_lab::records::{Phase, TrialKind};
+    use trn_lab::rig::Rig;
+    use trn_lab::runner::Runner;
+    use trn_lab::LabError as Error;
+    use trn_plant::{Plant, SimConfig};
     use trn_protocol::bus::{InProcBus, ReceiveTimeout};
     use trn_protocol::{
         BusMode, Encoder, Envelope, Heartbeat, Message, NodeId, NodeState, Reassembler,
         SafeStateAction, SafeStateReason,
     };
-    use trn_sim::experiment::records::{Phase, TrialKind};
-    use trn_sim::experiment::rig::Rig;
-    use trn_sim::experiment::runner::Runner;
-    use trn_sim::plant::{Plant, SimConfig};
-    use trn_sim::Error;
     let bus = InProcBus::new(BusMode::Classic, 1);
     let plant = Plant::new(&SimConfig::default(), 1).unwrap();
-    let rig = Rig::new(bus.port(), plant, BusMode::Classic, Default::default());
-    let timing = trn_sim::experiment::runner::Timing::new(
-        Duration::from_millis(50),
-        Duration::from_millis(1500),
+    let rig = Rig::new(
+        bus.port(),
+        Rc::new(WallClock::start()),
+        plant,
+        BusMode::Classic,
+        Default::default(),
     );
+    let timing =
+        trn_lab::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(1500));
     let mut s = Runner::new(rig, 1, timing);
     // a controller that sends one heartbeat, then dies
     let mut ctrl = bus.port();

@@ -5,11 +5,14 @@
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use trn_sim::experiment::cli::{Ablation, Controller, Preset};
+use trn_controller::presets::{Ablation, Preset};
+use trn_controller::Law;
 
-/// The TRN controller node on SocketCAN.
+/// `controller-node`: the controller as a CAN node in its own process, on a SocketCAN
+/// interface (vcan0 or a real adapter). It answers the protocol of protocol/SPEC.md until
+/// the runner ends the session (`ModeChange{Idle}`), then saves its tables if asked.
 #[derive(Debug, Parser)]
-#[command(name = "controller-node", version, about)]
+#[command(name = "controller-node", version, about, long_about = None)]
 struct Args {
     /// SocketCAN interface.
     #[arg(long, default_value = "vcan0")]
@@ -23,12 +26,12 @@ struct Args {
     /// Ablation.
     #[arg(long, value_enum, default_value_t = Ablation::None)]
     ablation: Ablation,
-    /// Control law.
-    #[arg(long, value_enum, default_value_t = Controller::Trn)]
-    controller: Controller,
+    /// Control law (`trn` or `broyden`).
+    #[arg(long, value_enum, default_value_t = Law::Trn)]
+    controller: Law,
     /// Simulator configuration (for the camera image size the initial weights span).
     #[arg(long)]
-    config: Option<PathBuf>,
+    config: Option<String>,
     /// CAN FD framing.
     #[arg(long)]
     fd: bool,
@@ -45,23 +48,30 @@ struct Args {
 
 #[cfg(target_os = "linux")]
 fn run(a: &Args) -> Result<(), String> {
-    use trn_sim::experiment::checkpoint_file;
-    use trn_sim::experiment::run::{controller_config, load_sim_config};
-    use trn_sim::transport::controller_loop;
-    let sim = load_sim_config(a.config.as_deref()).map_err(|e| e.to_string())?;
-    let provenance = trn_controller::checkpoint::Provenance::of(a.preset.into(), a.ablation.into());
-    let cfg = trn_controller::Config {
-        law: a.controller.into(),
-        ..controller_config(a.preset, a.ablation, &sim)
+    use trn_lab::{checkpoint_file, output, Command, Profile, RunSpec};
+    use trn_transport::controller_loop;
+    let mut spec = RunSpec::new(Command::Train, a.seed)
+        .with_plant(a.config.as_deref())
+        .map_err(|e| e.to_string())?;
+    spec.profile = Profile {
+        preset: a.preset,
+        ablation: a.ablation,
+        law: a.controller,
     };
-    let mut ctrl = Box::new(trn_controller::Controller::new(cfg));
+    // the output is checked before the session: a board's tables are not lost to an
+    // unwritable path at the end
+    if let Some(p) = &a.checkpoint_out {
+        output::check_path(p, output::Kind::Checkpoint).map_err(|e| e.to_string())?;
+    }
+    let provenance = trn_controller::checkpoint::Provenance::of(a.preset, a.ablation);
+    let mut ctrl = Box::new(trn_controller::Controller::new(spec.profile_config()));
     ctrl.init_random(a.seed);
     if let Some(p) = &a.checkpoint_in {
         checkpoint_file::load(&mut ctrl, p, provenance, a.allow_config_change)
             .map_err(|e| e.to_string())?;
     }
     let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
-        .map_err(|e| format!("{}: {e}", a.iface))?;
+        .map_err(|e| format!("SocketCAN interface {}: {e}", a.iface))?;
     let mode = if a.fd {
         trn_protocol::BusMode::Fd
     } else {
@@ -71,7 +81,7 @@ fn run(a: &Args) -> Result<(), String> {
     let (ctrl, stats) = controller_loop::run(port, ctrl, mode, &stop).map_err(|e| e.to_string())?;
     eprintln!(
         "controller-node: {} trials, {} aborted, {} frame errors",
-        stats.node.trials, stats.node.aborted, stats.node.frame_errors
+        stats.trials, stats.aborted, stats.frame_errors
     );
     if let Some(p) = &a.checkpoint_out {
         checkpoint_file::save(&ctrl, provenance, p).map_err(|e| e.to_string())?;

@@ -7,7 +7,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use crate::frame::{fd_len_for, CanFrame};
 
 /// Which frames the corruption injector may corrupt.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum CorruptScope {
     /// Any frame.
     #[default]
@@ -18,7 +18,7 @@ pub enum CorruptScope {
 }
 
 /// Fault probabilities, each applied independently per frame and per receiving port.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct FaultConfig {
     /// Probability that a receiver does not get the frame.
     pub drop: f64,
@@ -52,10 +52,20 @@ impl core::str::FromStr for FaultConfig {
             corrupt_scope: CorruptScope::LongMessages,
             ..FaultConfig::default()
         };
+        let mut seen: Vec<&str> = Vec::new();
         for part in s.split(',').filter(|p| !p.trim().is_empty()) {
             let (name, value) = part
                 .split_once('=')
                 .ok_or_else(|| format!("`{part}`: expected NAME=P"))?;
+            let canonical = match name.trim() {
+                "dup" => "duplicate",
+                "delay" => "reorder",
+                other => other,
+            };
+            if seen.contains(&canonical) {
+                return Err(format!("`{}` is given twice", name.trim()));
+            }
+            seen.push(canonical);
             let p: f64 = value
                 .trim()
                 .parse()
@@ -107,14 +117,19 @@ mod parse_tests {
             "drop=-0.1",
             "jam=0.1",
             "drop=nan",
+            "drop=0.1,drop=0.2",
+            "dup=0.1,duplicate=0.1",
+            "reorder=0.1,delay=0.2",
         ] {
             assert!(bad.parse::<FaultConfig>().is_err(), "{bad}");
         }
+        let e = "drop=0.1,drop=0.2".parse::<FaultConfig>().unwrap_err();
+        assert!(e.contains("twice"), "{e}");
     }
 }
 
 /// Counters of what the bus did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct BusStats {
     /// Frames accepted for transmission.
     pub sent: u64,

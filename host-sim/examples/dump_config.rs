@@ -1,7 +1,0 @@
-//! Prints the default simulator configuration as TOML (the source of `host-sim/sim.toml`).
-fn main() {
-    print!(
-        "{}",
-        toml::to_string(&trn_sim::plant::SimConfig::default()).expect("serialisable")
-    );
-}

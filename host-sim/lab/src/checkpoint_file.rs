@@ -1,0 +1,108 @@
+//! Checkpoint files: read bounded and verified into a controller, written durably.
+//!
+//! Writing: as every output ([`crate::output`]): a new temporary file in the target's
+//! directory, the bytes, `fsync` of the file, a rename over the target, `fsync` of the
+//! directory. A kill at any moment leaves the target holding the old or the new checkpoint
+//! (at worst a stray temporary `.NAME.tmp-PID-N` beside it, removed by the next run that
+//! writes there); no other file is touched.
+//!
+//! Reading: at most [`checkpoint::MAX_SIZE`] bytes of a regular file; the header must match
+//! the configuration the run uses (preset, ablation, every value) unless the caller allows
+//! a change.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+use trn_controller::checkpoint::{self, Provenance};
+use trn_controller::Controller;
+
+use crate::error::{io, LabError as Error, Result};
+
+fn checkpoint_err(path: &Path) -> impl FnOnce(trn_controller::Error) -> Error + '_ {
+    move |source| Error::Checkpoint {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn mismatch(path: &Path, what: String) -> Error {
+    Error::Usage(format!(
+        "checkpoint {}: {what}; pass --allow-config-change to use it anyway",
+        path.display()
+    ))
+}
+
+/// Reads and verifies a checkpoint into `ctrl`. Its tables must have been learned with
+/// `provenance` and `ctrl`'s configuration, unless `allow_change`.
+pub fn load(
+    ctrl: &mut Controller,
+    path: &Path,
+    provenance: Provenance,
+    allow_change: bool,
+) -> Result<()> {
+    let (bytes, header) = read(path)?;
+    if !allow_change {
+        if header.provenance != provenance {
+            return Err(mismatch(
+                path,
+                format!(
+                    "learned with preset/ablation {:?}, this run uses {:?}",
+                    (header.provenance.preset, header.provenance.ablation),
+                    (provenance.preset, provenance.ablation)
+                ),
+            ));
+        }
+        if !header.config_matches(ctrl.config()) {
+            return Err(mismatch(
+                path,
+                "learned under another configuration (fingerprint differs)".into(),
+            ));
+        }
+    }
+    checkpoint::restore(ctrl, &bytes).map_err(checkpoint_err(path))?;
+    Ok(())
+}
+
+/// Reads and verifies a checkpoint file (length, CRC, magic, version, shapes, values):
+/// its bytes and header.
+pub fn read(path: &Path) -> Result<(Vec<u8>, checkpoint::Header)> {
+    let file = File::open(path).map_err(io(path))?;
+    let meta = file.metadata().map_err(io(path))?;
+    if !meta.is_file() {
+        return Err(Error::Usage(format!(
+            "checkpoint {}: not a regular file",
+            path.display()
+        )));
+    }
+    if meta.len() > checkpoint::MAX_SIZE as u64 {
+        return Err(Error::Usage(format!(
+            "checkpoint {}: {} bytes, more than any checkpoint ({} bytes at most): not a checkpoint",
+            path.display(),
+            meta.len(),
+            checkpoint::MAX_SIZE
+        )));
+    }
+    let mut bytes = Vec::new();
+    // bounded: one byte more than any checkpoint tells a too-long file without reading it all
+    // (it may have grown since)
+    file.take(checkpoint::MAX_SIZE as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io(path))?;
+    let header = checkpoint::verify(&bytes).map_err(checkpoint_err(path))?;
+    Ok((bytes, header))
+}
+
+/// The CRC a verified checkpoint file ends with: what a simulator checkpoint records to
+/// be paired with it.
+pub fn crc_of(bytes: &[u8]) -> u32 {
+    let n = bytes.len();
+    u32::from_le_bytes([bytes[n - 4], bytes[n - 3], bytes[n - 2], bytes[n - 1]])
+}
+
+/// Writes a checkpoint of `ctrl` durably (see the module).
+pub fn save(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<()> {
+    let mut buf = vec![0u8; checkpoint::MAX_SIZE];
+    let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
+    crate::output::write_durably(path, &buf[..n])
+}

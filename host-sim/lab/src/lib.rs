@@ -1,0 +1,44 @@
+//! `trn-lab`: experiments with a controller on the simulated SoftArm, as a library (the
+//! command line, a Python binding, a study driver and the tests call it; it has no command
+//! line of its own, prints nothing and reads no signal).
+//!
+//! - A run is described by one [`RunSpec`] ([`spec`]) and run by [`run::run`]: it opens the
+//!   bus the specification names ([`trn_transport`]), with the controller on it, and drives
+//!   the trials against the simulated rig.
+//! - One trial: [`runner`] sets up the plant ([`targets`]) and sends the target; [`rig`]
+//!   serves the bus with the plant's nodes ([`trn_plant::nodes`]) until the controller
+//!   reports; the trial's [`records::TrialRecord`] goes into the run's log, which [`scoring`]
+//!   and [`metrics`] turn into the [`report::Report`]. [`schedule`] orders the trials.
+//! - Time: in process everything runs on one simulated clock ([`trn_transport::SimClock`]);
+//!   on a real bus on the wall clock. The rig and the runner read it through the rig.
+//! - Studies of many runs: [`compare`], [`sweep`], [`lifelong`]; the [`conformance`] suite.
+//! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
+//!   and the simulator's state beside them ([`sim_state`]).
+
+pub mod checkpoint_file;
+pub mod compare;
+pub mod conformance;
+mod error;
+pub mod lifelong;
+pub mod metrics;
+pub mod observe;
+pub mod output;
+pub mod records;
+pub mod reference;
+pub mod report;
+pub mod rig;
+pub mod run;
+pub mod runner;
+pub mod schedule;
+pub mod scoring;
+mod session;
+pub mod sim_state;
+pub mod spec;
+pub mod summary;
+pub mod sweep;
+pub mod targets;
+
+pub use error::{io, LabError, Result};
+pub use observe::{Observer, Unobserved};
+pub use report::Report;
+pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};

@@ -1,0 +1,30 @@
+//! What a run tells whoever watches it while it goes on ([`Observer`]): the command line's
+//! progress bar, a live view, a test. The lab itself prints nothing and reads no signal: an
+//! observer that answers `stop_requested` ends the run at the next trial boundary.
+
+use crate::records::TrialRecord;
+
+/// Watches a run. Every method has a default that does nothing.
+pub trait Observer {
+    /// The run starts; it will have about `trials` trials on the bus.
+    fn start(&mut self, _trials: u64) {}
+    /// A part of the run begins (`training`, `snapshot`, `eval`, `grasp`).
+    fn phase(&mut self, _name: &str) {}
+    /// A trial ended (its record as the runner saw it).
+    fn trial(&mut self, _record: &TrialRecord) {}
+    /// A line worth showing beside the progress (the recent training error).
+    fn message(&mut self, _text: &str) {}
+    /// The run ended (well or not).
+    fn finish(&mut self) {}
+    /// True when the run should stop at the next trial boundary (an interrupt): it then
+    /// ends as an interrupted run, with what it did so far.
+    fn stop_requested(&self) -> bool {
+        false
+    }
+}
+
+/// An observer that watches nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unobserved;
+
+impl Observer for Unobserved {}

@@ -1,0 +1,252 @@
+//! A run from its specification ([`RunSpec`]): checks it and its outputs, opens the bus the
+//! specification names with the controller on it (inline on the simulated clock, a
+//! `controller-node` process, the firmware in QEMU, or a board that is already there), runs
+//! the schedule or the conformance suite ([`crate::session`]) and writes what was asked.
+
+use std::time::Instant;
+
+use trn_controller::checkpoint::Provenance;
+use trn_controller::{Control, Controller, Law};
+use trn_plant::Plant;
+use trn_protocol::bus::BusStats;
+use trn_protocol::BusMode;
+use trn_transport::inproc::SimulatedBus;
+use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, TransportError};
+
+use crate::checkpoint_file;
+use crate::error::{LabError, Result};
+use crate::observe::Observer;
+use crate::output::OutputPlan;
+use crate::reference::NominalIk;
+use crate::report::Report;
+use crate::session::{Setup, Start};
+use crate::sim_state;
+use crate::spec::RunSpec;
+
+/// Runs a specification: training (if `plan.trials > 0`), the held-out evaluation and
+/// grasps, or the conformance suite; writes the report, the candump log and the checkpoint
+/// it asks for. `observer` watches it and may interrupt it.
+pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
+    spec.check()?;
+    let outputs = OutputPlan::check(spec)?;
+    let started = Instant::now();
+    let plant = Plant::new(&spec.plant, spec.seed)?;
+    let mut plan = spec.plan;
+    // a checkpoint's schedule goes on from the trials it learned; `--continue` also restores
+    // the simulation of the run that wrote it
+    let mut resume = None;
+    let mut checkpoint = None;
+    if let Some(p) = &spec.checkpoint_in {
+        let (bytes, header) = checkpoint_file::read(p)?;
+        plan.first_trial = header.t1 as usize;
+        let beside = sim_state::path_beside(p);
+        if plan.resume {
+            let crc = checkpoint_file::crc_of(&bytes);
+            let state = sim_state::load(&beside, spec.seed, &spec.plant, crc)?;
+            plan.first_trial = state.trials_done;
+            if spec.trials_left {
+                plan.trials = state.trials_planned.saturating_sub(state.trials_done);
+                if plan.trials == 0 {
+                    return Err(LabError::Usage(format!(
+                        "{}: the run that wrote it finished its {} trials: give --trials to train more",
+                        p.display(),
+                        state.trials_planned
+                    )));
+                }
+            }
+            resume = Some(state);
+        } else if !spec.allow_config_change {
+            // a checkpoint trained on another plant (its `.sim` says which) is refused
+            if let Ok(other) = sim_state::read_plant_config(&beside) {
+                if other != spec.plant {
+                    return Err(LabError::Usage(format!(
+                        "checkpoint {} was trained on another plant than this run's (its .sim says so); pass --allow-config-change to use it on this one",
+                        p.display()
+                    )));
+                }
+            }
+        }
+        checkpoint = Some(p.as_path());
+    }
+    let cfg = spec.controller_config();
+    // the run parameters go to the controller over the bus; a tuning configuration that no
+    // profile describes is given to the in-process controller directly instead
+    let keep_tables = checkpoint.is_some() || (spec.bus.external_controller && plan.trials == 0);
+    let described = spec.profile_config().fingerprint() == cfg.fingerprint();
+    let session = described.then(|| spec.session_config(keep_tables));
+    let mut report = Report::of(spec);
+    report.bus_stats.faults = spec.bus.faults.map(|f| format!("{f:?}"));
+    report.trials_this_run = plan.trials;
+    let start = Start {
+        spec,
+        plan,
+        session,
+        cfg,
+        resume: resume.as_ref(),
+        outputs: &outputs,
+    };
+    let bus_name = spec.bus.spec.to_string();
+    let profile = spec.bus.spec.profile(spec.bus.external_controller);
+    let mut setup = Setup::new(start, observer);
+    let trained: Option<Box<Controller>> = match profile.controller {
+        ControllerSite::Inline if cfg.law == Law::Model => {
+            // the model-based reference: the simulator's own model, in process only
+            let reference = Box::new(NominalIk::new(&spec.plant, cfg)?);
+            inline(&mut setup, reference, plant, &mut report)?;
+            None
+        }
+        ControllerSite::Inline => {
+            // zeroed, as a board boots: the session configuration seeds it (or a checkpoint
+            // is loaded into it and kept); a configuration no profile describes is seeded here
+            let mut ctrl = Box::new(Controller::new(cfg));
+            if session.is_none() {
+                ctrl.init_random(spec.seed);
+            }
+            if let Some(p) = checkpoint {
+                let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
+                checkpoint_file::load(&mut ctrl, p, provenance, spec.allow_config_change)?;
+            }
+            Some(inline(&mut setup, ctrl, plant, &mut report)?)
+        }
+        ControllerSite::Qemu => {
+            // processor-in-the-loop: the controller is the firmware in QEMU, configured and
+            // seeded by the session's `SessionConfig` like any other controller
+            let (port, child) = slcan_qemu::SlcanPort::spawn_qemu(
+                &slcan_qemu::qemu_arm(),
+                &slcan_qemu::firmware_elf(),
+            )
+            .map_err(|m| TransportError::open(&bus_name, m))?;
+            let outcome = setup.drive_wall(port, plant, &mut report).map(drop);
+            let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
+            outcome?;
+            stopped?;
+            None
+        }
+        ControllerSite::External => {
+            match &spec.bus.spec {
+                BusSpec::SlcanSerial(path) => {
+                    let port = slcan_serial::SerialSlcan::open(path, spec.bus.bitrate)
+                        .map_err(|m| TransportError::open(&bus_name, m))?;
+                    setup.drive_wall(port, plant, &mut report)?;
+                }
+                BusSpec::SocketCan(iface) => {
+                    setup.drive_wall(socketcan(iface, &bus_name)?, plant, &mut report)?;
+                }
+                _ => {
+                    return Err(LabError::Usage(format!(
+                        "{bus_name}: no external controller there"
+                    )))
+                }
+            }
+            None
+        }
+        ControllerSite::Process => {
+            let BusSpec::SocketCan(iface) = &spec.bus.spec else {
+                return Err(LabError::Usage(format!(
+                    "{bus_name}: no controller process there"
+                )));
+            };
+            let port = socketcan(iface, &bus_name)?;
+            let args = peer::NodeArgs {
+                iface,
+                seed: spec.seed,
+                preset: spec.profile.preset.name(),
+                ablation: spec.profile.ablation.name(),
+                controller: spec.profile.law.name(),
+                config: spec.plant_name.as_deref().map(std::path::Path::new),
+                fd: spec.bus.fd,
+                checkpoint_in: checkpoint,
+                checkpoint_out: outputs.checkpoint(),
+            };
+            let child = peer::spawn_controller_node(&args, &bus_name)?;
+            let outcome = setup.drive_wall(port, plant, &mut report).map(drop);
+            let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
+            outcome?;
+            stopped?;
+            None
+        }
+    };
+    let end_state = setup.take_end_state();
+    if let Some(ctrl) = &trained {
+        if let Some(p) = outputs.checkpoint() {
+            let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
+            checkpoint_file::save(ctrl, provenance, p)?;
+        }
+    }
+    // the simulator's half, after the controller's (over SocketCAN the node wrote it), paired
+    // with it by its CRC
+    if let (Some(p), Some(mut state)) = (outputs.checkpoint(), end_state) {
+        if p.exists() {
+            let (bytes, _) = checkpoint_file::read(p)?;
+            state.checkpoint_crc = checkpoint_file::crc_of(&bytes);
+            sim_state::save(&state, &sim_state::path_beside(p))?;
+        }
+    }
+    report.wall_s = started.elapsed().as_secs_f64();
+    outputs.write_report(&report)?;
+    Ok(report)
+}
+
+/// The session with the controller `ctrl` serviced inline on the simulated clock; the
+/// controller (with its tables) comes back.
+fn inline<C: Control + ?Sized>(
+    setup: &mut Setup,
+    ctrl: Box<C>,
+    plant: Plant,
+    report: &mut Report,
+) -> Result<Box<C>> {
+    let spec = setup.spec();
+    let mode = if spec.bus.fd {
+        BusMode::Fd
+    } else {
+        BusMode::Classic
+    };
+    let bus = SimulatedBus::new(mode, spec.seed, spec.bus.faults, ctrl);
+    let clock = bus.clock();
+    let bus = setup.drive(bus, std::rc::Rc::new(clock), plant, report)?;
+    report.bus_stats.injected = Some(injected(&bus.bus_stats()));
+    let (ctrl, n) = bus.into_controller();
+    report.bus_stats.controller = Some(counts([
+        ("retries", n.retries),
+        ("corrected_commands", n.corrected_commands),
+        ("repeated_targets", n.repeated_targets),
+        ("stale_answers", n.stale_answers),
+        ("frame_errors", n.frame_errors),
+        ("aborted", n.aborted),
+    ]));
+    Ok(ctrl)
+}
+
+#[cfg(target_os = "linux")]
+fn socketcan(iface: &str, bus: &str) -> Result<trn_protocol::bus::SocketCanPort> {
+    trn_protocol::bus::SocketCanPort::open(iface)
+        .map_err(|e| TransportError::open(bus, e.to_string()).into())
+}
+
+#[cfg(not(target_os = "linux"))]
+fn socketcan(_: &str, bus: &str) -> Result<trn_protocol::bus::SocketCanPort> {
+    Err(TransportError::open(bus, "SocketCAN needs Linux").into())
+}
+
+/// The fault injector's counters for the report.
+fn injected(s: &BusStats) -> std::collections::BTreeMap<String, u64> {
+    counts([
+        ("sent", s.sent),
+        ("delivered", s.delivered),
+        ("dropped", s.dropped),
+        ("duplicated", s.duplicated),
+        ("corrupted", s.corrupted),
+        ("truncated", s.truncated),
+        ("delayed", s.delayed),
+    ])
+}
+
+/// Named counters for the report.
+fn counts<T, const N: usize>(pairs: [(&str, T); N]) -> std::collections::BTreeMap<String, T> {
+    pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
+}
+
+/// A run of `spec` with nothing watching it.
+pub fn run_quietly(spec: &RunSpec) -> Result<Report> {
+    run(spec, &mut crate::observe::Unobserved)
+}

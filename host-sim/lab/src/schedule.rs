@@ -1,0 +1,356 @@
+//! The schedule of a run: training (stage 1 and stage 2 alternate, supervised priming
+//! first) with frozen snapshot evaluations, then the held-out evaluations and grasps.
+//! Produces the run's [`RunLog`].
+//!
+//! Every held-out evaluation uses deployment-style targets ([`HeldOut`]), the same set
+//! throughout a run. Snapshots and the final evaluations do not learn (`learn = false`,
+//! mode `Mature`) and run on a copy of the plant that is thrown away afterwards, so a run
+//! with snapshots trains exactly as one without.
+
+use embedded_can::blocking::Can;
+use rand_core::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use trn_controller::Config;
+use trn_protocol::bus::ReceiveTimeout;
+use trn_protocol::{CanFrame, Mode, FINE_MOVES_POLICY};
+
+use super::observe::Observer;
+use super::records::{Phase, RunLog, TrialKind, TrialRecord};
+use super::runner::{Runner, Source, TrialSpec};
+use super::scoring::{self, combined};
+use super::sim_state::SimState;
+use super::targets::HeldOut;
+use crate::error::Result;
+
+/// How many trials of each kind a run has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Plan {
+    /// Training trials per network (0: no training).
+    pub trials: usize,
+    /// Held-out targets per network.
+    pub eval_targets: usize,
+    /// Grasps.
+    pub grasps: usize,
+    /// The fixed budget of fine moves of the held-out evaluation (after the coarse move).
+    pub fine_moves: u8,
+    /// A frozen snapshot evaluation every this many training trials (0: none).
+    pub snapshot_every: usize,
+    /// Held-out targets per network in a snapshot (the first of the held-out set).
+    pub snapshot_targets: usize,
+    /// Grasps in a snapshot (the first of the held-out grasps; 0: none).
+    pub snapshot_grasps: usize,
+    /// Learning stops after this many training trials per network (the tables frozen, mode
+    /// `Mature`); the remaining training trials still move the arm, so drift and wear go on
+    /// as in a run that keeps learning. `None`: learning throughout.
+    pub learn_trials: Option<usize>,
+    /// Training trials per network learned before this run (a checkpoint's): the schedule
+    /// (priming, snapshots, `learn_trials`) continues from there.
+    pub first_trial: usize,
+    /// Continue the simulation of the run that wrote the checkpoint (its `.sim` file,
+    /// [`SimState`]): the same plant, training targets and held-out sets.
+    pub resume: bool,
+}
+
+impl Plan {
+    /// A plan with the default evaluation: 6 fine moves, a snapshot of 50 targets every 25
+    /// training trials.
+    pub const fn new(trials: usize, eval_targets: usize, grasps: usize) -> Plan {
+        Plan {
+            trials,
+            eval_targets,
+            grasps,
+            fine_moves: 6,
+            snapshot_every: 25,
+            snapshot_targets: 50,
+            snapshot_grasps: 0,
+            learn_trials: None,
+            first_trial: 0,
+            resume: false,
+        }
+    }
+
+    /// Trials on the bus in all (for the progress bar).
+    pub fn total(&self) -> usize {
+        let snapshots = self.trials.checked_div(self.snapshot_every).unwrap_or(0);
+        let per_snapshot = 2 * self.snapshot_targets.min(self.eval_targets)
+            + self.snapshot_grasps.min(self.grasps);
+        self.trials * 2 + snapshots * per_snapshot + self.eval_targets * 6 + self.grasps
+    }
+}
+
+/// The held-out sets of a run, drawn once from the run's seed.
+struct HeldOutSets {
+    targets: Vec<HeldOut>,
+    grasps: Vec<HeldOut>,
+}
+
+/// The runner and the log of a run, with its observer: each trial goes through here.
+struct Session<'a, P> {
+    runner: &'a mut Runner<P>,
+    log: RunLog,
+    observer: &'a mut dyn Observer,
+}
+
+impl<P> Session<'_, P>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    /// True (and the log marked interrupted) when the observer asks the run to stop: at a
+    /// trial boundary, before the next trial.
+    fn stopping(&mut self) -> bool {
+        if self.observer.stop_requested() {
+            self.log.interrupted = true;
+        }
+        self.log.interrupted
+    }
+
+    fn keep(&mut self, rec: TrialRecord) {
+        self.observer.trial(&rec);
+        self.log.trials.push(rec);
+    }
+
+    fn run(&mut self, spec: &TrialSpec) -> Result<()> {
+        let rec = self.runner.run(spec)?;
+        self.keep(rec);
+        Ok(())
+    }
+}
+
+/// Runs `plan` (the controller configured with `cfg`, for its priming length) and ends
+/// the session. `seed` draws the held-out targets (apart from the training targets), from
+/// the plant as it is before `resume` (a simulator checkpoint, [`SimState`]) replaces it:
+/// a continued run keeps the held-out sets of the run it continues. The log keeps the
+/// simulator's state at the end of training (or where an interrupt stopped it: a
+/// checkpoint of that state continues the run with `--continue`).
+pub fn run<P>(
+    runner: &mut Runner<P>,
+    mut plan: Plan,
+    cfg: &Config,
+    seed: u64,
+    observer: &mut dyn Observer,
+    resume: Option<&SimState>,
+) -> Result<RunLog>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    observer.start(plan.total() as u64);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x4E1D_0075_EED5);
+    let plant = runner.rig().plant();
+    let sets = HeldOutSets {
+        targets: HeldOut::set(plant, &mut rng, plan.eval_targets, false)?,
+        grasps: HeldOut::set(plant, &mut rng, plan.grasps, true)?,
+    };
+    if let Some(s) = resume {
+        *runner.rig_mut().plant_mut() = s.plant.clone();
+        runner.continue_sequence((s.runner_rng.clone(), s.runner_trial));
+        plan.first_trial = s.trials_done;
+    }
+    let mut s = Session {
+        runner,
+        log: RunLog::default(),
+        observer,
+    };
+    train(&mut s, plan, cfg, &sets, seed)?;
+    if !s.log.interrupted {
+        evaluate(&mut s, plan, &sets)?;
+    }
+    s.observer.finish();
+    s.runner.finish()?;
+    Ok(s.log)
+}
+
+/// The training trials with their snapshots; the simulator's state where they ended.
+fn train<P>(
+    s: &mut Session<P>,
+    plan: Plan,
+    cfg: &Config,
+    sets: &HeldOutSets,
+    seed: u64,
+) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let first = plan.first_trial;
+    if plan.trials > 0 {
+        let primed = first as u32 >= cfg.supervised_steps;
+        s.runner.mode(if primed {
+            Mode::Training
+        } else {
+            Mode::Priming
+        })?;
+        s.observer.phase("training");
+    }
+    let mut recent = Vec::new();
+    let learning = |i: usize| plan.learn_trials.is_none_or(|n| i < n);
+    let mut done = first;
+    for i in first..first + plan.trials {
+        if s.stopping() {
+            break;
+        }
+        let learn = learning(i);
+        let supervised = learn && (i as u32) < cfg.supervised_steps;
+        if !learn && (i == first || learning(i - 1)) {
+            // frozen from here on: the tables no longer change
+            s.runner.mode(Mode::Mature)?;
+        } else if learn && i as u32 == cfg.supervised_steps {
+            s.runner.mode(Mode::Training)?;
+        }
+        let kind1 = TrialKind::Stage1 { supervised, learn };
+        let r1 = s.runner.run_trial(kind1, Phase::Training)?;
+        let r2 = s
+            .runner
+            .run_trial(TrialKind::Stage2 { learn }, Phase::Training)?;
+        let last = |s: Option<scoring::StageScore>| s.map(|s| s.final_px()).unwrap_or(f32::NAN);
+        recent.push(combined(
+            last(scoring::stage1(&r1)),
+            last(scoring::stage2(&r2)),
+        ));
+        s.keep(r1);
+        s.keep(r2);
+        done = i + 1;
+        if i % 10 == 9 {
+            let tail = &recent[recent.len().saturating_sub(20)..];
+            let m = super::report::mean(tail);
+            s.observer
+                .message(&format!("combined error (last 20) {m:.2} px"));
+        }
+        if plan.snapshot_every > 0 && (i + 1) % plan.snapshot_every == 0 {
+            s.observer.phase("snapshot");
+            let resume = if !learning(i + 1) {
+                Mode::Mature
+            } else if (i as u32 + 1) < cfg.supervised_steps {
+                Mode::Priming
+            } else {
+                Mode::Training
+            };
+            let n = plan.snapshot_targets.min(sets.targets.len());
+            let g = plan.snapshot_grasps.min(sets.grasps.len());
+            let held = (&sets.targets[..n], &sets.grasps[..g]);
+            snapshot(s, held, plan, i + 1)?;
+            s.runner.mode(resume)?;
+            s.observer.phase("training");
+        }
+    }
+    let (runner_rng, runner_trial) = s.runner.sequence();
+    s.log.end_of_training = Some(Box::new(SimState {
+        version: super::sim_state::VERSION,
+        seed,
+        trials_done: done,
+        trials_planned: first + plan.trials,
+        history: Default::default(),
+        runner_rng,
+        runner_trial,
+        checkpoint_crc: 0,
+        plant: s.runner.rig().plant().clone(),
+    }));
+    Ok(())
+}
+
+/// The held-out evaluations (fixed budget, stop rule, the paper's protocol) and grasps.
+fn evaluate<P>(s: &mut Session<P>, plan: Plan, sets: &HeldOutSets) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    s.runner.mode(Mode::Mature)?;
+    s.observer.phase("eval");
+    let pairs = |phase, fine_moves| {
+        sets.targets
+            .iter()
+            .flat_map(move |h| {
+                [
+                    TrialKind::Stage1 {
+                        supervised: false,
+                        learn: false,
+                    },
+                    TrialKind::Stage2 { learn: false },
+                ]
+                .map(|kind| TrialSpec {
+                    kind,
+                    phase,
+                    source: Source::HeldOut(*h),
+                    fine_moves,
+                })
+            })
+            .collect::<Vec<_>>()
+    };
+    for spec in pairs(Phase::Deployment, plan.fine_moves)
+        .into_iter()
+        .chain(pairs(Phase::Evaluation, FINE_MOVES_POLICY))
+    {
+        if s.stopping() {
+            return Ok(());
+        }
+        s.run(&spec)?;
+    }
+    for _ in 0..plan.eval_targets {
+        for kind in [
+            TrialKind::Stage1 {
+                supervised: false,
+                learn: false,
+            },
+            TrialKind::Stage2 { learn: false },
+        ] {
+            if s.stopping() {
+                return Ok(());
+            }
+            let rec = s.runner.run_trial(kind, Phase::VisitAndReturn)?;
+            s.keep(rec);
+        }
+    }
+    s.observer.phase("grasp");
+    for h in &sets.grasps {
+        if s.stopping() {
+            return Ok(());
+        }
+        s.run(&TrialSpec {
+            kind: TrialKind::Grasp { learn: false },
+            phase: Phase::Grasping,
+            source: Source::HeldOut(*h),
+            fine_moves: FINE_MOVES_POLICY,
+        })?;
+    }
+    Ok(())
+}
+
+/// A frozen evaluation after `trained` training trials per network: the held-out targets
+/// with the fixed move budget and the held-out grasps with the stop rule, no learning, on a
+/// copy of the plant (restored afterwards). An interrupt is kept for after it: a snapshot
+/// is not cut short.
+fn snapshot<P>(
+    s: &mut Session<P>,
+    (targets, grasps): (&[HeldOut], &[HeldOut]),
+    plan: Plan,
+    trained: usize,
+) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let saved = s.runner.rig().plant().clone();
+    s.runner.mode(Mode::Mature)?;
+    for h in targets {
+        for kind in [
+            TrialKind::Stage1 {
+                supervised: false,
+                learn: false,
+            },
+            TrialKind::Stage2 { learn: false },
+        ] {
+            s.run(&TrialSpec {
+                kind,
+                phase: Phase::Snapshot(trained),
+                source: Source::HeldOut(*h),
+                fine_moves: plan.fine_moves,
+            })?;
+        }
+    }
+    for h in grasps {
+        s.run(&TrialSpec {
+            kind: TrialKind::Grasp { learn: false },
+            phase: Phase::SnapshotGrasp(trained),
+            source: Source::HeldOut(*h),
+            fine_moves: FINE_MOVES_POLICY,
+        })?;
+    }
+    *s.runner.rig_mut().plant_mut() = saved;
+    Ok(())
+}

@@ -1,0 +1,181 @@
+//! One session on an open bus: the rig and the runner on the port, on the run's clock, the
+//! bus recorded as a candump log if asked, then the schedule (or the conformance suite)
+//! against whatever controller is on the bus. The port comes back at the end (in process it
+//! holds the controller and its tables).
+
+use std::rc::Rc;
+
+use embedded_can::blocking::Can;
+use trn_controller::Config;
+use trn_plant::Plant;
+use trn_protocol::bus::{ReceiveTimeout, RecordingPort};
+use trn_protocol::{BusMode, CanFrame, SessionConfig};
+use trn_transport::{Clock, WallClock};
+
+use crate::conformance::{self, Patience};
+use crate::error::{io, LabError, Result};
+use crate::metrics;
+use crate::observe::Observer;
+use crate::output::OutputPlan;
+use crate::report::Report;
+use crate::rig::Rig;
+use crate::runner::{Runner, Timing};
+use crate::schedule::{self, Plan};
+use crate::sim_state::SimState;
+use crate::spec::{Command, RunSpec};
+
+/// What a session starts from.
+pub(crate) struct Start<'a> {
+    pub spec: &'a RunSpec,
+    /// The trials (the checkpoint's first trial filled in).
+    pub plan: Plan,
+    /// The run parameters sent to the controller first (none for a tuning configuration).
+    pub session: Option<SessionConfig>,
+    /// The controller's configuration (its priming length paces the schedule).
+    pub cfg: Config,
+    /// The simulation to continue (`--continue`).
+    pub resume: Option<&'a SimState>,
+    /// The checked outputs.
+    pub outputs: &'a OutputPlan,
+}
+
+/// A session about to run, and what it leaves behind.
+pub(crate) struct Setup<'a> {
+    start: Start<'a>,
+    observer: &'a mut dyn Observer,
+    /// The simulator's state at the end of training, for the checkpoint.
+    end_state: Option<Box<SimState>>,
+}
+
+/// Microseconds of the candump log's time 0 (a fixed epoch: logs of the same run are equal).
+const LOG_EPOCH_US: u64 = 1_700_000_000_000_000;
+
+impl<'a> Setup<'a> {
+    pub fn new(start: Start<'a>, observer: &'a mut dyn Observer) -> Setup<'a> {
+        Setup {
+            start,
+            observer,
+            end_state: None,
+        }
+    }
+
+    pub fn spec(&self) -> &RunSpec {
+        self.start.spec
+    }
+
+    /// The simulator's state at the end of training (or where an interrupt stopped it).
+    pub fn take_end_state(&mut self) -> Option<Box<SimState>> {
+        self.end_state.take()
+    }
+
+    /// [`Setup::drive`] on the wall clock (a real bus).
+    pub fn drive_wall<P>(&mut self, port: P, plant: Plant, report: &mut Report) -> Result<P>
+    where
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+    {
+        self.drive(port, Rc::new(WallClock::start()), plant, report)
+    }
+
+    /// Runs the session on `port` with `clock`, recording the bus as a candump log if asked;
+    /// returns the port.
+    pub fn drive<P>(
+        &mut self,
+        port: P,
+        clock: Rc<dyn Clock>,
+        plant: Plant,
+        report: &mut Report,
+    ) -> Result<P>
+    where
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+    {
+        let Some(mut log) = self.start.outputs.candump()? else {
+            return self.session(port, clock, plant, report);
+        };
+        let stamp = clock.clone();
+        let now_us = move || LOG_EPOCH_US + stamp.now().as_micros() as u64;
+        let iface = self.start.spec.bus.spec.log_name().to_string();
+        let rec = RecordingPort::new(port, &mut log, &iface, now_us);
+        let outcome = self.session(rec, clock, plant, report).and_then(|rec| {
+            rec.into_parts()
+                .map(|(port, _)| port)
+                .map_err(LabError::from)
+        });
+        // a write error of the log (a full disk) surfaced as a bus error: name the log
+        if let Some(kind) = log.write_error() {
+            return Err(io(log.target())(kind.into()));
+        }
+        let port = outcome?;
+        log.commit()?;
+        Ok(port)
+    }
+
+    fn session<P>(
+        &mut self,
+        port: P,
+        clock: Rc<dyn Clock>,
+        plant: Plant,
+        report: &mut Report,
+    ) -> Result<P>
+    where
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+    {
+        let spec = self.start.spec;
+        let profile = spec.bus.spec.profile(spec.bus.external_controller);
+        let supervision = trn_protocol::HeartbeatConfig {
+            timeout_ms: profile.heartbeat_timeout.as_millis() as u32,
+            ..Default::default()
+        };
+        let mode = if spec.bus.fd {
+            BusMode::Fd
+        } else {
+            BusMode::Classic
+        };
+        let rig = Rig::new(port, clock, plant, mode, supervision);
+        let silence = std::time::Duration::from_secs_f64(spec.bus.timeout_s);
+        let timing = Timing {
+            alive: profile.heartbeat_timeout,
+            retries: profile.retries,
+            ..Timing::new(profile.reply, silence)
+        };
+        let mut runner = Runner::new(rig, spec.seed, timing);
+        if spec.command == Command::Conformance {
+            let session = self.start.session.ok_or_else(|| {
+                LabError::Usage("the conformance suite needs a profile's configuration".into())
+            })?;
+            let patience = Patience {
+                answer: profile.answer,
+                quiet: profile.quiet,
+            };
+            let checks = conformance::run(&mut runner, session, patience);
+            report.bus_stats.runner = runner.stats();
+            report.conformance = checks?;
+            return Ok(runner.into_rig().into_port());
+        }
+        if let Some(s) = self.start.session {
+            runner.configure(s)?;
+        }
+        let plan = self.start.plan;
+        let log = schedule::run(
+            &mut runner,
+            plan,
+            &self.start.cfg,
+            spec.seed,
+            &mut *self.observer,
+            self.start.resume,
+        );
+        report.bus_stats.runner = runner.stats();
+        let mut log = log?;
+        report.interrupted = log.interrupted;
+        metrics::fill(report, &log, plan.eval_targets, plan.grasps);
+        // the networks' whole history: the trials and curve of the run continued
+        report.trials = plan.first_trial + report.stage1_error_px.len();
+        if let Some(earlier) = self.start.resume {
+            report.continue_from(&earlier.history);
+        }
+        self.end_state = log.end_of_training.take().map(|mut s| {
+            s.history = report.history();
+            s
+        });
+        Ok(runner.into_rig().into_port())
+    }
+}

@@ -1,0 +1,330 @@
+//! One run's specification ([`RunSpec`]): everything that decides what a run does, with the
+//! project's defaults in one place, built once (from the command line, a study, a test or a
+//! Python call), checked once ([`RunSpec::check`]) and written into the run's report.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+use trn_controller::{Config, Law};
+use trn_plant::SimConfig;
+use trn_protocol::bus::FaultConfig;
+use trn_protocol::SessionConfig;
+use trn_transport::BusSpec;
+
+use crate::error::{LabError, Result};
+use crate::schedule::Plan;
+
+/// What the controller is told to be: the fields of the session's `SessionConfig` besides
+/// the seed and the bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Profile {
+    /// The named configuration.
+    pub preset: Preset,
+    /// What is left out of the method.
+    pub ablation: Ablation,
+    /// The control law.
+    pub law: Law,
+}
+
+impl Profile {
+    /// The project's defaults: the project preset, the full method, the TRN.
+    pub const DEFAULT: Profile = Profile {
+        preset: Preset::Project,
+        ablation: Ablation::None,
+        law: Law::Trn,
+    };
+
+    /// A label for tables and reports: the law when it is not the TRN, else the preset and
+    /// the ablation.
+    pub fn label(&self) -> String {
+        match (self.law, self.ablation) {
+            (Law::Trn, Ablation::None) => self.preset.name().to_string(),
+            (Law::Trn, a) => format!("{}+{}", self.preset.name(), a.name()),
+            (law, _) => law.name().to_string(),
+        }
+    }
+}
+
+/// The bus of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BusChoice {
+    /// The transport.
+    pub spec: BusSpec,
+    /// The controller runs elsewhere on the bus (a board): none is started.
+    pub external_controller: bool,
+    /// Long messages as CAN FD frames instead of CAN 2.0 segments.
+    pub fd: bool,
+    /// Faults injected on the in-process bus, seeded by the run's seed.
+    pub faults: Option<FaultConfig>,
+    /// Seconds without a frame from the controller before the run fails.
+    pub timeout_s: f64,
+    /// The CAN bit rate a serial adapter is started with (bit/s).
+    pub bitrate: u32,
+}
+
+impl Default for BusChoice {
+    fn default() -> Self {
+        BusChoice {
+            spec: BusSpec::InProc,
+            external_controller: false,
+            fd: false,
+            faults: None,
+            timeout_s: 10.0,
+            bitrate: 500_000,
+        }
+    }
+}
+
+/// Where a run writes (each checked before the run starts: see `crate::output`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outputs {
+    /// The JSON report.
+    pub report: Option<PathBuf>,
+    /// The learning curves (PNG or SVG; drawn by the command line).
+    pub plot: Option<PathBuf>,
+    /// A candump log of the bus.
+    pub candump: Option<PathBuf>,
+    /// One CSV row per trial.
+    pub csv: Option<PathBuf>,
+    /// The trained networks (and the simulator's state beside them, `NAME.sim`).
+    pub checkpoint: Option<PathBuf>,
+    /// A checkpoint every this many training trials per network as well (0: at the end).
+    pub checkpoint_every: usize,
+}
+
+/// What a run does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Command {
+    /// Train, then evaluate.
+    Train,
+    /// Evaluate a checkpoint (no learning).
+    Eval,
+    /// Grasps with a checkpoint.
+    Grasp,
+    /// The conformance suite against the controller on the bus.
+    Conformance,
+}
+
+impl Command {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Command::Train => "train",
+            Command::Eval => "eval",
+            Command::Grasp => "grasp",
+            Command::Conformance => "conformance",
+        }
+    }
+}
+
+/// Everything that decides a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSpec {
+    /// What the run does.
+    pub command: Command,
+    /// Seed of the run: the plant, the targets, the initial tables, the faults.
+    pub seed: u64,
+    /// The controller's profile.
+    pub profile: Profile,
+    /// How the plant was named (`--config`: a built-in name or a file); `None`: the default
+    /// realistic plant.
+    pub plant_name: Option<String>,
+    /// The plant's full configuration.
+    pub plant: SimConfig,
+    /// The bus.
+    pub bus: BusChoice,
+    /// The trials.
+    pub plan: Plan,
+    /// Start from this checkpoint.
+    pub checkpoint_in: Option<PathBuf>,
+    /// Use a checkpoint learned under another configuration.
+    pub allow_config_change: bool,
+    /// Continuing a run (`plan.resume`): train for the trials the continued run had left
+    /// (its `.sim` says how many it was planned for) instead of `plan.trials`.
+    #[serde(default)]
+    pub trials_left: bool,
+    /// The files the run writes.
+    pub outputs: Outputs,
+    /// A controller configuration no profile describes (tuning, tests): given to the
+    /// in-process controller directly instead of through the session configuration.
+    #[serde(skip)]
+    pub controller_override: Option<Config>,
+}
+
+/// Counts above this are refused (a usage error): a run of that many trials would not fit
+/// in memory (each trial's record is about a kilobyte) nor end in a lifetime.
+pub const MAX_COUNT: usize = 10_000_000;
+
+impl RunSpec {
+    /// A run with the project's defaults: the realistic plant, the project preset on the
+    /// in-process bus, 300 training trials, 100 held-out targets per network, 50 grasps.
+    pub fn new(command: Command, seed: u64) -> RunSpec {
+        RunSpec {
+            command,
+            seed,
+            profile: Profile::DEFAULT,
+            plant_name: None,
+            plant: SimConfig::realistic(),
+            bus: BusChoice::default(),
+            plan: Plan::new(300, 100, 50),
+            checkpoint_in: None,
+            allow_config_change: false,
+            trials_left: false,
+            outputs: Outputs::default(),
+            controller_override: None,
+        }
+    }
+
+    /// The plant named as `--config` names it (a built-in name or a TOML file).
+    pub fn with_plant(mut self, name: Option<&str>) -> Result<RunSpec> {
+        self.plant = SimConfig::resolve(name.map(std::path::Path::new))?;
+        self.plant_name = name.map(str::to_string);
+        Ok(self)
+    }
+
+    /// The cameras' image size, as the controller's initial weights span it.
+    pub fn image(&self) -> ImageSize {
+        let (w, h) = self.plant.image_size();
+        ImageSize {
+            width: w.min(u16::MAX as u32) as u16,
+            height: h.min(u16::MAX as u32) as u16,
+        }
+    }
+
+    /// The controller configuration the profile describes for this plant.
+    pub fn profile_config(&self) -> Config {
+        Config {
+            law: self.profile.law,
+            ..presets::configure(self.profile.preset, self.profile.ablation, self.image())
+        }
+    }
+
+    /// The controller configuration of the run: the override, else the profile's.
+    pub fn controller_config(&self) -> Config {
+        self.controller_override
+            .unwrap_or_else(|| self.profile_config())
+    }
+
+    /// The session's run parameters for the controller (SPEC.md 3.2).
+    pub fn session_config(&self, keep_tables: bool) -> SessionConfig {
+        let image = self.image();
+        SessionConfig {
+            seed: self.seed,
+            preset: self.profile.preset as u8,
+            ablation: self.profile.ablation as u8,
+            image_width: image.width,
+            image_height: image.height,
+            fd: self.bus.fd,
+            keep_tables,
+            law: self.profile.law as u8,
+        }
+    }
+
+    /// Refuses a specification that cannot run, before anything runs: options that
+    /// contradict each other or the bus, counts beyond what a machine can hold.
+    pub fn check(&self) -> Result<()> {
+        let usage = |m: &str| Err(LabError::Usage(m.to_string()));
+        let profile = self.bus.spec.profile(self.bus.external_controller);
+        let checkpoints = self.checkpoint_in.is_some() || self.outputs.checkpoint.is_some();
+        let plan = &self.plan;
+        for (name, n) in [
+            ("--trials", plan.trials),
+            ("--eval-targets", plan.eval_targets),
+            ("--grasps", plan.grasps),
+            ("--snapshot-targets", plan.snapshot_targets),
+            ("--snapshot-grasps", plan.snapshot_grasps),
+        ] {
+            if n > MAX_COUNT {
+                return Err(LabError::Usage(format!(
+                    "{name} {n} is more than this machine can hold (at most {MAX_COUNT})"
+                )));
+            }
+        }
+        if self.bus.external_controller && self.bus.spec == BusSpec::InProc {
+            return usage("--external-controller needs a real bus (socketcan:IFACE or slcan:/dev/DEVICE): the in-process bus has no controller but its own");
+        }
+        if checkpoints && !profile.checkpoints {
+            return usage(match self.bus.spec {
+                BusSpec::SlcanQemu => "the firmware keeps its tables in RAM: no --checkpoint-in/--checkpoint-out",
+                _ => "an external controller (on socketcan:IFACE or slcan:/dev/DEVICE) keeps its own tables: no --checkpoint-in/--checkpoint-out",
+            });
+        }
+        if self.bus.faults.is_some() && !profile.faults {
+            return usage("--faults injects faults on the in-process bus only");
+        }
+        if self.profile.law == Law::Model && (!profile.host_laws || checkpoints) {
+            return usage("the model-based reference (--controller model) carries the simulator's model: in process only, no checkpoints");
+        }
+        if plan.resume && self.checkpoint_in.is_none() {
+            return usage("--continue needs --checkpoint-in");
+        }
+        if self.outputs.checkpoint_every > 0 && self.outputs.checkpoint.is_none() {
+            return usage("--checkpoint-every needs --checkpoint-out");
+        }
+        if !(self.bus.timeout_s.is_finite()
+            && self.bus.timeout_s > 0.0
+            && self.bus.timeout_s <= 3600.0)
+        {
+            return usage("--bus-timeout-s is a duration in (0, 3600] seconds");
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The firmware configures its controller with `presets::configure` for
+    /// `ImageSize::DEFAULT`; the host derives the image size from the simulator's cameras.
+    /// If the default cameras change, the two would differ.
+    #[test]
+    fn host_and_firmware_build_the_same_default_controller() {
+        let spec = RunSpec::new(Command::Train, 1);
+        let firmware = presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
+        assert_eq!(spec.controller_config(), firmware);
+    }
+
+    #[test]
+    fn a_spec_survives_json_whole() {
+        let mut spec = RunSpec::new(Command::Train, 7)
+            .with_plant(Some("ideal"))
+            .unwrap();
+        spec.bus.faults = Some("drop=0.1".parse().unwrap());
+        spec.profile.ablation = Ablation::NoFine;
+        let json = serde_json::to_string(&spec).unwrap();
+        let back: RunSpec = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, spec);
+        assert!(json.contains("\"no-fine\""), "{json}");
+    }
+
+    #[test]
+    fn contradictions_and_huge_counts_are_refused_before_anything_runs() {
+        let ok = RunSpec::new(Command::Train, 1);
+        assert!(ok.check().is_ok());
+        let mut s = ok.clone();
+        s.plan.eval_targets = usize::MAX;
+        let e = s.check().unwrap_err().to_string();
+        assert!(e.contains("--eval-targets") && e.contains("at most"), "{e}");
+        let mut s = ok.clone();
+        s.bus.spec = BusSpec::SlcanQemu;
+        s.outputs.checkpoint = Some("x.ckpt".into());
+        assert!(s.check().unwrap_err().to_string().contains("RAM"));
+        let mut s = ok.clone();
+        s.bus.spec = BusSpec::SocketCan("vcan0".into());
+        s.bus.faults = Some(FaultConfig::default());
+        assert!(s.check().unwrap_err().to_string().contains("--faults"));
+        let mut s = ok.clone();
+        s.profile.law = Law::Model;
+        s.checkpoint_in = Some("x".into());
+        assert!(s.check().unwrap_err().to_string().contains("model"));
+        let mut s = ok.clone();
+        s.bus.external_controller = true;
+        assert!(s.check().unwrap_err().to_string().contains("external"));
+        let mut s = ok;
+        s.plan.resume = true;
+        assert!(s.check().unwrap_err().to_string().contains("--continue"));
+    }
+}

@@ -1,0 +1,45 @@
+//! The conformance suite (protocol/SPEC.md) against the project's controller node on the
+//! in-process bus, on CAN 2.0 and CAN FD, both presets. (Over SocketCAN it runs in the
+//! vcan VM, `scripts/vcan/tests.sh`; against the firmware in QEMU, `scripts/cross/pil.sh`.)
+
+use trn_controller::presets::{Ablation, Preset};
+use trn_controller::Law;
+use trn_lab::{run, Command, Profile, RunSpec};
+
+fn suite(seed: u64, preset: Preset, fd: bool) {
+    suite_with(seed, preset, fd, Law::Trn)
+}
+
+fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
+    let mut spec = RunSpec::new(Command::Conformance, seed);
+    spec.profile = Profile {
+        preset,
+        ablation: Ablation::None,
+        law,
+    };
+    spec.bus.fd = fd;
+    let r = run::run_quietly(&spec).unwrap();
+    assert!(r.conformance.len() >= 18, "{} checks", r.conformance.len());
+    let failed: Vec<_> = r.conformance.iter().filter(|c| !c.passed).collect();
+    assert!(failed.is_empty(), "{failed:#?}");
+}
+
+#[test]
+fn the_project_node_conforms_on_can_2_0() {
+    suite(100, Preset::Project, false);
+}
+
+#[test]
+fn the_project_node_conforms_on_can_fd_with_the_paper_preset() {
+    suite(101, Preset::Paper, true);
+}
+
+#[test]
+fn the_broyden_baseline_conforms_too() {
+    suite_with(102, Preset::Project, false, Law::Broyden);
+}
+
+#[test]
+fn the_model_based_reference_conforms_too() {
+    suite_with(103, Preset::Project, false, Law::Model);
+}

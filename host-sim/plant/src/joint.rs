@@ -1,0 +1,378 @@
+//! One pneumatic joint: servo drive unit (12-bit command, saturation, first-order pressure
+//! lag), rate-independent asymmetric hysteresis, and second-order dynamics.
+//!
+//! **Hysteresis model: Prandtl-Ishlinskii with asymmetric play operators.** The static map
+//! from pressure difference to equilibrium angle is a weighted sum of a linear term and
+//! `PLAYS` play (backlash) operators of graded radii. It was chosen over Preisach (a 2-D
+//! density to identify, costly to evaluate) and Maxwell-slip (equivalent to PI for a
+//! rate-independent loop, but parameterised by forces): PI is rate independent, has nested
+//! minor loops as Fig. 8.2's tubes show, its loop width is one parameter (the sum of the
+//! operators' contributions), and width 0 collapses it to a single-valued curve.
+//! `hysteresis_asymmetry` `a`: each play operator lags by `(1 + a) r` on the way up and
+//! `(1 - a) r` on the way down. That is a symmetric play operator of radius `r` whose output
+//! is shifted by `-a r` (`y + a r` stays within `r` of the input), so the "asymmetry" only
+//! moves the whole loop by a constant: its two branches remain mirror images of each other,
+//! and a learned pressure absorbs the offset. (Branches of really different shape are the
+//! realistic plant's business.) A static `tanh` shaping after the operators makes the
+//! pressure-angle relation nonlinear, as the rubber tubes' is.
+
+use super::config::JointConfig;
+
+/// Play operators per joint.
+pub const PLAYS: usize = 6;
+const SHAPE: f64 = 1.1;
+
+/// The 12-bit servo command for a normalised pressure difference.
+pub fn raw_of(p: f64) -> u16 {
+    (((p.clamp(-1.0, 1.0) + 1.0) * 0.5 * 4095.0).round() as u16).min(4095)
+}
+
+/// The normalised pressure difference of a 12-bit value.
+pub fn pressure_of(raw: u16) -> f64 {
+    raw.min(4095) as f64 / 4095.0 * 2.0 - 1.0
+}
+
+/// A joint's state.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Joint {
+    cfg: JointConfig,
+    /// Commanded pressure after saturation (normalised).
+    command: f64,
+    /// Pressure in the tubes (normalised), lagging the command.
+    pressure: f64,
+    /// Play operator outputs.
+    plays: [f64; PLAYS],
+    radii: [f64; PLAYS],
+    weight_linear: f64,
+    weight_play: f64,
+    /// Joint angle and velocity (radians, rad/s).
+    angle: f64,
+    velocity: f64,
+    /// Cumulative travel (radians), for wear.
+    pub travel: f64,
+    /// Extra offset (radians) from drift and wear, set by the plant.
+    pub offset: f64,
+    /// Gain factor from wear, set by the plant.
+    pub gain: f64,
+    /// Effects of the real arm ([`crate::RealismConfig`]), set by the plant.
+    pub effects: JointEffects,
+    /// Slow part of the equilibrium still to arrive (creep, radians).
+    creep: f64,
+    /// The equilibrium of the previous step (for the creep).
+    eq_last: f64,
+}
+
+/// A joint's share of the real arm's effects.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct JointEffects {
+    /// Bulge of the generalised play operators' envelopes (see `update_plays`).
+    pub skew: f64,
+    /// Multiplies the loop's contribution (the load-dependent width), 1 without load.
+    pub width_scale: f64,
+    /// This move's random offset of the equilibrium (radians).
+    pub process_offset: f64,
+    /// Fraction of every equilibrium change that arrives by creep.
+    pub creep_fraction: f64,
+    /// Creep time constant (s).
+    pub creep_tau_s: f64,
+}
+
+impl JointEffects {
+    /// No effect.
+    pub const NONE: JointEffects = JointEffects {
+        skew: 0.0,
+        width_scale: 1.0,
+        process_offset: 0.0,
+        creep_fraction: 0.0,
+        creep_tau_s: 0.0,
+    };
+}
+
+impl Joint {
+    /// A joint at rest at zero pressure, on its ascending branch.
+    pub fn new(cfg: &JointConfig) -> Joint {
+        // Radii spread over (0, 1]; a full cycle over [-1, 1] opens each play operator by
+        // 2 r (mean of both directions), so the PI output gap is
+        // weight_play * sum(2 r_i) / PLAYS, and its span is 2 (weights sum to 1).
+        let mut radii = [0.0; PLAYS];
+        for (i, r) in radii.iter_mut().enumerate() {
+            *r = (i + 1) as f64 / PLAYS as f64 * 0.5;
+        }
+        let mean_gap = radii.iter().map(|r| 2.0 * r).sum::<f64>() / PLAYS as f64;
+        // gap of the angle as a fraction of the range: the output span is 2 (in PI units),
+        // so the gap fraction is weight_play * mean_gap / 2, corrected for the tanh shaping
+        // at the centre (slope SHAPE / tanh(SHAPE)).
+        let slope = SHAPE / SHAPE.tanh();
+        let weight_play = (2.0 * cfg.hysteresis_width / (mean_gap * slope)).min(0.95);
+        let mut j = Joint {
+            cfg: cfg.clone(),
+            command: 0.0,
+            pressure: 0.0,
+            plays: [0.0; PLAYS],
+            radii,
+            weight_linear: 1.0 - weight_play,
+            weight_play,
+            angle: 0.0,
+            velocity: 0.0,
+            travel: 0.0,
+            offset: 0.0,
+            gain: 1.0,
+            effects: JointEffects::NONE,
+            creep: 0.0,
+            eq_last: 0.0,
+        };
+        j.angle = j.equilibrium();
+        j.eq_last = j.angle;
+        j
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &JointConfig {
+        &self.cfg
+    }
+
+    /// Servo drive input: a 12-bit command. Returns (raw pressure now, saturated).
+    pub fn command_raw(&mut self, raw: u16) -> (u16, bool) {
+        let p = pressure_of(raw);
+        let lim = self.cfg.servo_limit;
+        let saturated = p.abs() > lim;
+        self.command = p.clamp(-lim, lim);
+        (raw_of(self.pressure), saturated)
+    }
+
+    /// The command in force (normalised, after saturation).
+    pub fn commanded(&self) -> f64 {
+        self.command
+    }
+
+    /// The pressure in the tubes (normalised).
+    pub fn pressure(&self) -> f64 {
+        self.pressure
+    }
+
+    /// The joint angle (radians).
+    pub fn angle(&self) -> f64 {
+        self.angle
+    }
+
+    /// The joint angle (degrees).
+    pub fn angle_deg(&self) -> f64 {
+        self.angle.to_degrees()
+    }
+
+    fn update_plays(&mut self) {
+        let a = self.cfg.hysteresis_asymmetry;
+        let x = self.pressure;
+        // generalised play operators (Al Janaideh, Rakheja and Su, 2009): the ascending and
+        // the descending branch follow different envelopes, x - b(x) and x + b(x), with a
+        // bulge b >= 0 that is largest on the positive side, so the loop is wider there and
+        // its branches are not mirror images; skew 0 gives the classical operator
+        let b = if self.effects.skew == 0.0 {
+            0.0
+        } else {
+            self.effects.skew * (1.0 - x * x).max(0.0) * (1.0 + x) / 2.0
+        };
+        let (up_env, down_env) = (x - b, x + b);
+        for (y, r) in self.plays.iter_mut().zip(self.radii.iter()) {
+            let up = r * (1.0 + a);
+            let down = r * (1.0 - a);
+            if up_env - up > *y {
+                *y = up_env - up;
+            } else if down_env + down < *y {
+                *y = down_env + down;
+            }
+        }
+    }
+
+    /// The equilibrium angle for the current play states (radians).
+    pub fn equilibrium(&self) -> f64 {
+        let play: f64 = self.plays.iter().sum::<f64>() / PLAYS as f64;
+        let y = if self.effects.width_scale == 1.0 {
+            self.weight_linear * self.pressure + self.weight_play * play
+        } else {
+            // a wider loop: the play operators' part grows, the linear part takes the rest
+            let wp = (self.weight_play * self.effects.width_scale).min(0.95);
+            (1.0 - wp) * self.pressure + wp * play
+        };
+        let s = (SHAPE * y).tanh() / SHAPE.tanh();
+        let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
+        let mid = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo);
+        mid + self.gain * half * s + self.offset + self.effects.process_offset
+    }
+
+    /// The angles (radians) this joint reaches at rest on the loop's centre line with drive
+    /// pressures within `[-limit, limit]`, in its present state of drift and wear: the range
+    /// the targets' poses come from when `limit` is the joint's `target_limit`.
+    pub fn angle_range(&self, limit: f64) -> (f64, f64) {
+        let s = (SHAPE * limit).tanh() / SHAPE.tanh();
+        let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
+        let mid = 0.5 * (lo + hi) + self.offset;
+        let half = 0.5 * (hi - lo) * self.gain * s;
+        (mid - half, mid + half)
+    }
+
+    /// One physics step of `dt` seconds: pressure lag, hysteresis, dynamics
+    /// (semi-implicit Euler).
+    pub fn step(&mut self, dt: f64) {
+        let k = dt / self.cfg.pressure_tau_s;
+        self.pressure += (self.command - self.pressure) * k.min(1.0);
+        self.update_plays();
+        let mut target = self.equilibrium();
+        let fraction = self.effects.creep_fraction;
+        if fraction > 0.0 {
+            // viscoelastic creep: a fraction of every change of the equilibrium arrives with
+            // the time constant creep_tau_s
+            self.creep -= fraction * (target - self.eq_last);
+            self.eq_last = target;
+            self.creep *= (-dt / self.effects.creep_tau_s).exp();
+            target += self.creep;
+        }
+        let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
+        let acc =
+            wn * wn * (target - self.angle) - 2.0 * self.cfg.damping_ratio * wn * self.velocity;
+        self.velocity += acc * dt;
+        let d = self.velocity * dt;
+        self.angle += d;
+        self.travel += d.abs();
+    }
+
+    /// Sets the tubes' pressure at once and lets the joint settle fully (tests, pictures).
+    pub fn settle_at(&mut self, p: f64) {
+        self.command = p;
+        self.pressure = p;
+        self.update_plays();
+        self.angle = self.equilibrium();
+        self.eq_last = self.angle;
+        self.creep = 0.0;
+        self.velocity = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::SimConfig;
+
+    fn sweep(j: &mut Joint, from: f64, to: f64, n: usize) -> Vec<(f64, f64)> {
+        (0..=n)
+            .map(|i| {
+                let p = from + (to - from) * i as f64 / n as f64;
+                j.settle_at(p);
+                (p, j.angle_deg())
+            })
+            .collect()
+    }
+
+    fn loop_gap(width: f64, asym: f64) -> f64 {
+        let mut cfg = SimConfig::default().joints[1].clone();
+        cfg.hysteresis_width = width;
+        cfg.hysteresis_asymmetry = asym;
+        let mut j = Joint::new(&cfg);
+        sweep(&mut j, 0.0, -1.0, 50);
+        let up = sweep(&mut j, -1.0, 1.0, 200);
+        let down = sweep(&mut j, 1.0, -1.0, 200);
+        // gap at zero pressure between the descending and the ascending branch
+        let at0 = |b: &[(f64, f64)]| {
+            b.iter()
+                .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+                .unwrap()
+                .1
+        };
+        (at0(&down) - at0(&up)) / (cfg.max_deg - cfg.min_deg)
+    }
+
+    #[test]
+    fn loop_width_matches_the_configuration() {
+        for w in [0.05, 0.10, 0.20] {
+            let gap = loop_gap(w, 0.3);
+            assert!((gap - w).abs() <= 0.1 * w, "configured {w}, measured {gap}");
+        }
+    }
+
+    #[test]
+    fn zero_width_gives_one_curve() {
+        assert!(loop_gap(0.0, 0.3).abs() < 1e-12);
+    }
+
+    /// What `hysteresis_asymmetry` is: the same loop moved by a constant. Fails if the
+    /// branches ever differ in shape (then this doc and sim.toml must say so).
+    #[test]
+    fn asymmetry_is_an_offset_of_a_symmetric_loop() {
+        let loop_of = |asym: f64| {
+            let mut cfg = SimConfig::default().joints[1].clone();
+            cfg.hysteresis_asymmetry = asym;
+            let mut j = Joint::new(&cfg);
+            sweep(&mut j, 0.0, -1.0, 50);
+            let mut pts = sweep(&mut j, -1.0, 1.0, 100);
+            pts.extend(sweep(&mut j, 1.0, -1.0, 100));
+            pts.iter().map(|p| p.1).collect::<Vec<_>>()
+        };
+        let (sym, asym) = (loop_of(0.0), loop_of(0.5));
+        // away from the ends (where the offset pushes into the tanh's saturation) the
+        // difference between the two loops is one constant on both branches
+        let d: Vec<f64> = sym.iter().zip(&asym).map(|(a, b)| b - a).collect();
+        let (up, down) = (&d[40..60], &d[141..161]);
+        let spread = |v: &[f64]| {
+            v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
+        };
+        println!(
+            "offset {:.3} deg, spread up {:.4} down {:.4}",
+            up[0],
+            spread(up),
+            spread(down)
+        );
+        assert!(up[0].abs() > 1.0, "the asymmetry moves the loop: {}", up[0]);
+        assert!(
+            spread(up) < 0.15 && spread(down) < 0.15,
+            "up {up:?} down {down:?}"
+        );
+    }
+
+    #[test]
+    fn the_loop_is_shifted_by_the_asymmetry() {
+        let mut cfg = SimConfig::default().joints[1].clone();
+        cfg.hysteresis_asymmetry = 0.5;
+        let mut j = Joint::new(&cfg);
+        sweep(&mut j, 0.0, -1.0, 50);
+        let up = sweep(&mut j, -1.0, 1.0, 100);
+        let down = sweep(&mut j, 1.0, -1.0, 100);
+        let mid = 0.5 * (cfg.min_deg + cfg.max_deg);
+        // the ascending branch lies further from the centre line than the descending one
+        let lag_up = mid - up[50].1;
+        let lag_down = down[50].1 - mid;
+        assert!(lag_up > lag_down * 1.2, "up {lag_up}, down {lag_down}");
+    }
+
+    #[test]
+    fn a_step_overshoots_and_settles() {
+        let cfg = SimConfig::default().joints[1].clone();
+        let mut j = Joint::new(&cfg);
+        j.settle_at(0.0);
+        let start = j.angle();
+        j.command_raw(raw_of(0.5));
+        let mut peak = start;
+        for _ in 0..5000 {
+            j.step(0.001);
+            peak = peak.max(j.angle());
+        }
+        let end = j.angle();
+        assert!((end - j.equilibrium()).abs() < 1e-4, "settled");
+        assert!(
+            peak > end + 0.05 * (end - start),
+            "overshoot: peak {peak}, final {end}"
+        );
+    }
+
+    #[test]
+    fn servo_saturates_and_quantises() {
+        let mut cfg = SimConfig::default().joints[0].clone();
+        cfg.servo_limit = 0.8;
+        let mut j = Joint::new(&cfg);
+        assert!(j.command_raw(raw_of(0.9)).1);
+        assert!(!j.command_raw(raw_of(0.5)).1);
+        assert_eq!(raw_of(-1.0), 0);
+        assert_eq!(raw_of(1.0), 4095);
+        assert!((pressure_of(raw_of(0.123)) - 0.123).abs() < 1.0 / 4095.0);
+    }
+}

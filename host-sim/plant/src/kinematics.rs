@@ -1,0 +1,148 @@
+//! Forward kinematics of the five-joint arm: base rotation, shoulder, elbow, and a
+//! differential wrist.
+//!
+//! Frame: x forward, y left, z up, origin at the base. Joint 0 turns the arm about z;
+//! joints 1 (shoulder) and 2 (elbow) pitch the upper arm and forearm in the arm's vertical
+//! plane. The wrist is differential, as the SoftArm's (Sec. 8.2): joints 3 and 4 each turn
+//! the gripper about both of its axes, pitch YY' = (q3 + q4) / 2 and roll XX' = (q3 - q4) / 2;
+//! a pure rotation about either axis needs both pressures.
+
+use super::config::SimConfig;
+use super::vec3::{add, angle_deg, cross, norm, scale, sub, unit, V3};
+
+/// The gripper's pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// Gripper centre, between the fingers (mm).
+    pub centre_mm: V3,
+    /// Approach direction (the gripper's XX', pointing from wrist to fingers).
+    pub approach: V3,
+    /// Finger-closing axis (YY').
+    pub finger_axis: V3,
+    /// The axis a grasped cylinder must have, approach x finger axis (ZZ').
+    pub normal: V3,
+    /// Joint angles (degrees).
+    pub joint_angles_deg: [f64; 5],
+}
+
+impl Pose {
+    /// No pose (NaN everywhere).
+    pub const NONE: Pose = Pose {
+        centre_mm: [f64::NAN; 3],
+        approach: [f64::NAN; 3],
+        finger_axis: [f64::NAN; 3],
+        normal: [f64::NAN; 3],
+        joint_angles_deg: [f64::NAN; 5],
+    };
+
+    /// Position (mm) and orientation (degrees: the larger of the approach and normal
+    /// deviations) error of this pose against `target`.
+    pub fn error_to(&self, target: &Pose) -> (f32, f32) {
+        let mm = norm(&sub(&self.centre_mm, &target.centre_mm));
+        let deg = angle_deg(&self.approach, &target.approach)
+            .max(angle_deg(&self.normal, &target.normal));
+        (mm as f32, deg as f32)
+    }
+}
+
+/// Shoulder, elbow, wrist and gripper-centre positions, and the pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chain {
+    /// Shoulder (mm).
+    pub shoulder: V3,
+    /// Elbow (mm).
+    pub elbow: V3,
+    /// Wrist (mm).
+    pub wrist: V3,
+    /// The gripper's pose.
+    pub pose: Pose,
+}
+
+/// Forward kinematics for joint angles `q` (radians).
+pub fn forward(cfg: &SimConfig, q: &[f64; 5]) -> Chain {
+    let (c0, s0) = (q[0].cos(), q[0].sin());
+    let radial = |a: f64| -> V3 { [a.cos() * c0, a.cos() * s0, a.sin()] };
+    let shoulder = [0.0, 0.0, cfg.shoulder_height_mm];
+    let a1 = q[1];
+    let a2 = q[1] + q[2];
+    let elbow = add(&shoulder, &scale(&radial(a1), cfg.upper_arm_mm));
+    let wrist = add(&elbow, &scale(&radial(a2), cfg.forearm_mm));
+    let pitch = 0.5 * (q[3] + q[4]);
+    let roll = 0.5 * (q[3] - q[4]);
+    let approach = unit(&radial(a2 + pitch));
+    // the finger axis before roll: horizontal, perpendicular to the arm's plane
+    let lateral = [-s0, c0, 0.0];
+    let up_in_plane = cross(&approach, &lateral);
+    let finger_axis = unit(&add(
+        &scale(&lateral, roll.cos()),
+        &scale(&up_in_plane, roll.sin()),
+    ));
+    let normal = unit(&cross(&approach, &finger_axis));
+    let centre = add(&wrist, &scale(&approach, cfg.hand_mm));
+    let mut deg = [0.0; 5];
+    for (d, a) in deg.iter_mut().zip(q.iter()) {
+        *d = a.to_degrees();
+    }
+    Chain {
+        shoulder,
+        elbow,
+        wrist,
+        pose: Pose {
+            centre_mm: centre,
+            approach,
+            finger_axis,
+            normal,
+            joint_angles_deg: deg,
+        },
+    }
+}
+
+/// The gripper lights p and q: at the centre, `light_offset_mm` either way along the normal
+/// (the axis a grasped cylinder has), so that at the pre-grasp pose they coincide with the
+/// target lights in front of the cylinder (Fig. 8.3).
+pub fn lights(cfg: &SimConfig, pose: &Pose) -> [V3; 2] {
+    let d = scale(&pose.normal, cfg.light_offset_mm);
+    [
+        add(&pose.centre_mm, &d),
+        add(&pose.centre_mm, &scale(&d, -1.0)),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vec3::{dot, norm};
+
+    #[test]
+    fn straight_arm_by_hand() {
+        let cfg = SimConfig::default();
+        let c = forward(&cfg, &[0.0; 5]);
+        let reach = cfg.upper_arm_mm + cfg.forearm_mm + cfg.hand_mm;
+        assert!((c.pose.centre_mm[0] - reach).abs() < 1e-9);
+        assert!((c.pose.centre_mm[2] - cfg.shoulder_height_mm).abs() < 1e-9);
+        assert!((c.pose.finger_axis[1] - 1.0).abs() < 1e-12);
+        assert!(
+            (c.pose.normal[2] - 1.0).abs() < 1e-12,
+            "{:?}",
+            c.pose.normal
+        );
+    }
+
+    #[test]
+    fn the_wrist_is_differential() {
+        let cfg = SimConfig::default();
+        // equal wrist angles: pure pitch; opposite: pure roll (approach unchanged)
+        let pitch = forward(&cfg, &[0.0, 0.0, 0.0, 0.3, 0.3]).pose;
+        assert!((pitch.approach[2] - 0.3f64.sin()).abs() < 1e-12);
+        let roll = forward(&cfg, &[0.0, 0.0, 0.0, 0.3, -0.3]).pose;
+        assert!((roll.approach[0] - 1.0).abs() < 1e-12);
+        assert!((roll.finger_axis[2] - 0.3f64.sin()).abs() < 1e-12);
+        // one wrist joint alone moves both
+        let one = forward(&cfg, &[0.0, 0.0, 0.0, 0.3, 0.0]).pose;
+        assert!(one.approach[2] > 0.0 && one.finger_axis[2] > 0.0);
+        for p in [pitch, roll, one] {
+            assert!((norm(&p.normal) - 1.0).abs() < 1e-12);
+            assert!(dot(&p.normal, &p.approach).abs() < 1e-12);
+        }
+    }
+}

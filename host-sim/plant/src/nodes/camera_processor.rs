@@ -1,0 +1,254 @@
+//! The camera processor as a sans-IO node: a `CaptureRequest` lets the arm settle, reads the
+//! requested lights in both cameras and answers with an `Observation` of the same `seq`.
+
+use trn_protocol as proto;
+use trn_protocol::{CaptureKind, Envelope, Message, NodeId, PixelPoint};
+
+use super::Outbox;
+use crate::{Plant, Pose, Readings};
+
+/// What a capture saw, with the ground truth beside it (for scoring only: the controller
+/// gets the noisy readings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sight {
+    /// The gripper lights p and q (stage 1).
+    Lights {
+        /// As sent to the controller.
+        noisy: Readings<4>,
+        /// Noise-free projections.
+        truth: Readings<4>,
+    },
+    /// The gripper-centre light (stage 2).
+    Centre {
+        /// As sent.
+        noisy: Readings<2>,
+        /// Noise-free.
+        truth: Readings<2>,
+    },
+}
+
+/// One served capture request: a move of the controller, as the runner scores it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Capture {
+    /// The request's sequence number.
+    pub seq: u16,
+    /// The readings.
+    pub sight: Sight,
+    /// The gripper's pose when the reading was taken (ground truth).
+    pub pose: Pose,
+    /// The plant's simulated time when the reading was taken, after the settle (s).
+    pub time_s: f64,
+}
+
+/// The camera processor (both cameras).
+#[derive(Debug, Clone, Default)]
+pub struct CameraProcessor {
+    captures: u64,
+    /// Where the gripper's markers were last seen (the start of a marker fit).
+    track: Option<[crate::vec3::V3; 3]>,
+    /// The last observation sent, to send again when its request is repeated.
+    last: Option<proto::Observation>,
+    /// A point to report invalid in the next new capture (a fault injected by a test).
+    spoil: Option<(usize, proto::PointStatus)>,
+}
+
+/// What a message was for the camera processor.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Served {
+    /// Not a capture request for it.
+    Nothing,
+    /// A new capture: the arm settled, both cameras read.
+    Capture(Box<Capture>),
+    /// A repeat of the last request (its observation was lost): the same observation sent
+    /// again, no new reading.
+    Repeat,
+    /// An older request (late or reordered): ignored.
+    Stale,
+}
+
+/// The protocol's points for plant readings: a valid reading as is; an invalid one as
+/// `(0, 0)` with its status (out of view, occluded, not detected).
+pub fn points_of<const K: usize>(r: &Readings<K>) -> [PixelPoint; 4] {
+    let mut points = [PixelPoint::UNUSED; 4];
+    for (p, r) in points.iter_mut().zip(r.points.iter()) {
+        let status = match r.status {
+            crate::PointStatus::Valid => proto::PointStatus::Valid,
+            crate::PointStatus::OutOfView => proto::PointStatus::OutOfView,
+            crate::PointStatus::Occluded => proto::PointStatus::Occluded,
+            crate::PointStatus::NotDetected => proto::PointStatus::NotDetected,
+        };
+        *p = if status == proto::PointStatus::Valid && r.x.is_finite() && r.y.is_finite() {
+            PixelPoint::valid(r.x as f32, r.y as f32)
+        } else {
+            PixelPoint {
+                x: 0.0,
+                y: 0.0,
+                status: if status == proto::PointStatus::Valid {
+                    proto::PointStatus::NotDetected
+                } else {
+                    status
+                },
+            }
+        };
+    }
+    points
+}
+
+impl CameraProcessor {
+    /// A camera processor.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Makes the next new capture report point `index` (0..4) as invalid with `status`
+    /// (x = y = 0), whatever the cameras see: a fault the conformance suite injects.
+    pub fn spoil_next(&mut self, index: usize, status: proto::PointStatus) {
+        self.spoil = Some((index, status));
+    }
+
+    /// Captures served so far (each is one move of the controller).
+    pub fn captures(&self) -> u64 {
+        self.captures
+    }
+
+    /// A received message: a `CaptureRequest` is served (the arm settles, both cameras
+    /// read) and answered; what was seen is returned for scoring. A repeat of the last
+    /// request (its observation was lost) gets the same observation again without a new
+    /// reading; an older request (late, reordered) is ignored.
+    pub fn on_message(&mut self, plant: &mut Plant, env: &Envelope, out: &mut Outbox) -> Served {
+        let (NodeId::CameraProcessor, Message::CaptureRequest(req)) = (env.node, env.msg) else {
+            return Served::Nothing;
+        };
+        if let Some(last) = self.last {
+            if last.seq == req.seq && last.what == req.what {
+                out.push(Envelope::new(NodeId::CameraProcessor, last.into()));
+                return Served::Repeat;
+            }
+            let behind = last.seq.wrapping_sub(req.seq);
+            if behind != 0 && behind < 0x8000 {
+                return Served::Stale;
+            }
+        }
+        plant.settle();
+        self.captures += 1;
+        // the stereo check, new frames for a light not detected or inconsistent, a hidden
+        // light filled in from the marker layout (plant::stereo): not a move
+        let (sight, points) = match req.what {
+            CaptureKind::GripperLights => {
+                let (noisy, _) = plant.gripper_lights_filled(&mut self.track);
+                let truth = plant.observe_gripper_lights_true();
+                (Sight::Lights { noisy, truth }, points_of(&noisy))
+            }
+            CaptureKind::GripperCentre => {
+                let (noisy, _) = plant.gripper_centre_filled(&mut self.track);
+                let truth = plant.observe_gripper_centre_true();
+                (Sight::Centre { noisy, truth }, points_of(&noisy))
+            }
+        };
+        let mut obs = proto::Observation {
+            seq: req.seq,
+            what: req.what,
+            points,
+        };
+        if let Some((i, status)) = self.spoil.take() {
+            if let Some(p) = obs.points.get_mut(i) {
+                *p = PixelPoint {
+                    x: 0.0,
+                    y: 0.0,
+                    status,
+                };
+            }
+        }
+        self.last = Some(obs);
+        out.push(Envelope::new(NodeId::CameraProcessor, obs.into()));
+        Served::Capture(Box::new(Capture {
+            seq: req.seq,
+            sight,
+            pose: plant.gripper_pose(),
+            time_s: plant.time_s(),
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SimConfig;
+    use trn_protocol::CaptureRequest;
+
+    fn request(seq: u16, what: CaptureKind) -> Envelope {
+        Envelope::new(NodeId::CameraProcessor, CaptureRequest { seq, what }.into())
+    }
+
+    #[test]
+    fn a_capture_settles_the_arm_and_echoes_the_seq() {
+        let mut plant = Plant::new(&SimConfig::default(), 1).unwrap();
+        let mut cam = CameraProcessor::new();
+        let mut out = Outbox::new();
+        let t0 = plant.time_s();
+        let req = request(42, CaptureKind::GripperCentre);
+        let Served::Capture(cap) = cam.on_message(&mut plant, &req, &mut out) else {
+            panic!("a capture")
+        };
+        assert!((plant.time_s() - t0 - plant.config().settle_s).abs() < 1e-9);
+        let Message::Observation(o) = out[0].msg else {
+            panic!()
+        };
+        assert_eq!((o.seq, o.what), (42, CaptureKind::GripperCentre));
+        assert!(o.all_valid(), "the rest pose is in view");
+        let Sight::Centre { noisy, truth } = cap.sight else {
+            panic!()
+        };
+        assert_eq!(o.points[0].x, noisy.points[0].x as f32);
+        assert_ne!(noisy.points[0].x, truth.points[0].x, "noise is added");
+        assert_eq!(cam.captures(), 1);
+        // other messages are not for it
+        let hb = Envelope::new(
+            NodeId::CameraProcessor,
+            trn_protocol::GripperStatus { closed: true }.into(),
+        );
+        assert_eq!(cam.on_message(&mut plant, &hb, &mut out), Served::Nothing);
+        // the request repeated (its observation was lost): the same observation, no new
+        // reading, no time; an older request: nothing
+        let t = plant.time_s();
+        let repeat = request(42, CaptureKind::GripperCentre);
+        assert_eq!(
+            cam.on_message(&mut plant, &repeat, &mut out),
+            Served::Repeat
+        );
+        assert_eq!(out[0], out[1]);
+        assert_eq!(plant.time_s(), t);
+        let old = request(41, CaptureKind::GripperCentre);
+        assert_eq!(cam.on_message(&mut plant, &old, &mut out), Served::Stale);
+        assert_eq!(cam.captures(), 1);
+    }
+
+    #[test]
+    fn invalid_readings_keep_their_status() {
+        let r = Readings::<2> {
+            points: [
+                crate::PixelReading {
+                    x: f64::NAN,
+                    y: f64::NAN,
+                    status: crate::PointStatus::Occluded,
+                },
+                crate::PixelReading {
+                    x: f64::NAN,
+                    y: f64::NAN,
+                    status: crate::PointStatus::OutOfView,
+                },
+            ],
+        };
+        let p = points_of(&r);
+        assert_eq!(
+            p[0],
+            PixelPoint {
+                x: 0.0,
+                y: 0.0,
+                status: proto::PointStatus::Occluded
+            }
+        );
+        assert_eq!(p[1].status, proto::PointStatus::OutOfView);
+        assert_eq!(p[2], PixelPoint::UNUSED);
+    }
+}

@@ -1,0 +1,307 @@
+//! Command-line options of `trn` (clap): what each subcommand takes. [`crate::args`] turns
+//! them into the lab's specifications.
+
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+use trn_controller::presets::{Ablation, Preset};
+use trn_controller::Law;
+
+/// `trn`: train, evaluate and compare the TRN controller of a hysteretic soft arm (and its
+/// baselines) on the simulated SoftArm, or check any controller on a CAN bus against the
+/// protocol. The controller runs as a CAN node: in this process on a simulated clock, as a
+/// `controller-node` process on SocketCAN, as firmware in QEMU, or on a board.
+#[derive(Debug, Parser)]
+#[command(name = "trn", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Cmd,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Cmd {
+    /// Train both networks (stage 1: supervised priming, then unsupervised; stage 2:
+    /// unsupervised), then evaluate on held-out targets and grasps.
+    Train(TrainArgs),
+    /// Evaluate a checkpoint on held-out targets (no learning).
+    Eval(EvalArgs),
+    /// Full two-stage grasps of random cylinders from a checkpoint.
+    Grasp(EvalArgs),
+    /// Run the paper/project presets, the ablations and the baselines over several seeds
+    /// (the README's table).
+    Compare(CompareArgs),
+    /// The conformance suite (protocol/SPEC.md): drives the controller on the bus (the
+    /// project's node, or with --external-controller whatever controller is on the bus)
+    /// through every trial sequence and checks its answers; fails if any check fails.
+    Conformance(ConformanceArgs),
+    /// The project preset on a built-in list of plant variants (hysteresis width, camera
+    /// noise, coupling, creep, process noise, a skewed loop, outliers, damping), each
+    /// changed alone from the base configuration, seeds from 100: how the result degrades.
+    Sweep(SweepArgs),
+    /// Life-long learning under temperature drift and wear: thousands of trials with frozen
+    /// snapshot evaluations (held-out targets and grasps), for the network frozen after its
+    /// initial training, the project preset, the lifelong preset and the Broyden servo.
+    Lifelong(LifelongArgs),
+}
+
+/// `trn lifelong`.
+#[derive(Debug, Args, Clone)]
+pub struct LifelongArgs {
+    /// Seed of the runs (seeds 1-99 are for tuning).
+    #[arg(long, default_value_t = 100)]
+    pub seed: u64,
+    /// Trials per network, in all.
+    #[arg(long, default_value_t = 5000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: u64,
+    /// Training trials before the frozen network stops learning.
+    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    pub initial: u64,
+    /// A snapshot evaluation every this many trials.
+    #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub snapshot_every: u64,
+    /// Held-out targets per network in each snapshot.
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=100_000))]
+    pub snapshot_targets: u64,
+    /// Held-out grasps in each snapshot.
+    #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u64).range(0..=100_000))]
+    pub snapshot_grasps: u64,
+    /// Simulator configuration: `aging` (the default: the ideal plant with temperature
+    /// drift and bounded wear), another built-in one by name, or a TOML file.
+    #[arg(long, default_value = "aging")]
+    pub config: String,
+    /// Only these controllers (comma-separated: frozen, project, lifelong, broyden).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["frozen".to_string(), "project".into(), "lifelong".into(), "broyden".into()])]
+    pub only: Vec<String>,
+    /// Where lifelong.json (and, with the plot feature, lifelong.png) go.
+    #[arg(long, default_value = "out/lifelong")]
+    pub out: PathBuf,
+}
+
+/// `trn sweep`.
+#[derive(Debug, Args, Clone)]
+pub struct SweepArgs {
+    /// Seeds to run: 100 .. 100 + N.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Training trials per network.
+    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: u64,
+    /// The base configuration the variants change: a TOML file, `ideal` (the default) or
+    /// `realistic` (the last rows are the realistic plant whatever the base).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Where the variants' configurations and sweep.json go.
+    #[arg(long, default_value = "out/sweep")]
+    pub out: PathBuf,
+}
+
+/// `trn conformance`.
+#[derive(Debug, Args, Clone)]
+pub struct ConformanceArgs {
+    /// Shared options (the bus, the preset and seed sent in the `SessionConfig`).
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// A duration in seconds: finite, positive, at most an hour.
+fn seconds(s: &str) -> Result<f64, String> {
+    let x: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() && x > 0.0 && x <= 3600.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s} is not a duration in (0, 3600] seconds"))
+    }
+}
+
+/// Options shared by `train`, `eval`, `grasp` and `conformance`.
+#[derive(Debug, Args, Clone)]
+pub struct Common {
+    /// Seed of the run (plant, targets, initial tables). Seeds 1-99 are for tuning; the
+    /// README reports seeds from 100 up.
+    #[arg(long, default_value_t = 100)]
+    pub seed: u64,
+    /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
+    /// default: coupling, process noise, skewed loops, creep, camera outliers and
+    /// dropouts, occlusion by hand and cylinder, lens distortion; `ideal`: none of it;
+    /// `aging`: the ideal plant with temperature drift and bounded wear).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Bus: `inproc` (the controller node in this process on a simulated clock, the
+    /// default), `socketcan:IFACE` (a separate `controller-node` process on IFACE: vcan0 or
+    /// a real adapter), `slcan:qemu` (the firmware in QEMU, CAN frames as SLCAN over its
+    /// UART; build it first with `bash scripts/cross/pil.sh --build-only`; it takes seed,
+    /// preset, ablation and CAN mode from the session's `SessionConfig`) or
+    /// `slcan:/dev/DEVICE` (a USB-CAN adapter that speaks serial SLCAN, e.g. /dev/ttyACM0,
+    /// with a controller elsewhere on the bus: `--external-controller`).
+    #[arg(long, default_value = "inproc")]
+    pub bus: String,
+    /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a
+    /// USB-CAN adapter at `slcan:/dev/DEVICE`): start none; it keeps its own tables.
+    #[arg(long)]
+    pub external_controller: bool,
+    /// Use CAN FD framing (one frame per message) instead of CAN 2.0 segmentation.
+    #[arg(long)]
+    pub fd: bool,
+    /// The CAN bit rate a serial SLCAN adapter is started with (bit/s: 10000, 20000, 50000,
+    /// 100000, 125000, 250000, 500000, 800000 or 1000000).
+    #[arg(long, default_value_t = 500_000)]
+    pub bitrate: u32,
+    /// Controller preset.
+    #[arg(long, value_enum, default_value_t = Preset::Project)]
+    pub preset: Preset,
+    /// Ablation.
+    #[arg(long, value_enum, default_value_t = Ablation::None)]
+    pub ablation: Ablation,
+    /// The control law: `trn` (the chapter's method), `broyden` (uncalibrated visual
+    /// servoing with a Broyden Jacobian, no training) or `model` (the simulator's nominal
+    /// inverse kinematics: a calibrated model without hysteresis compensation; in process
+    /// only).
+    #[arg(long = "controller", value_enum, default_value_t = Law::Trn)]
+    pub law: Law,
+    /// Held-out targets per network in the evaluation.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub eval_targets: u64,
+    /// Grasps in the evaluation.
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub grasps: u64,
+    /// Fine moves after the coarse move in the held-out evaluation with the fixed move
+    /// budget (never stopping early; at most 31).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u8).range(0..=31))]
+    pub fine_moves: u8,
+    /// A frozen snapshot evaluation (held-out targets, fixed budget, no learning) every this
+    /// many training trials (0: none).
+    #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub snapshot_every: u64,
+    /// Held-out targets per network in each snapshot (the first of the held-out set).
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub snapshot_targets: u64,
+    /// Write the JSON report here (.json).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write learning curves here (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Record the bus traffic as a candump log here (.log).
+    #[arg(long)]
+    pub candump: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Seconds without a frame from the controller before the run fails (0 < s <= 3600).
+    #[arg(long, default_value_t = 10.0, value_parser = seconds)]
+    pub bus_timeout_s: f64,
+    /// Use a checkpoint learned under another preset, ablation or configuration.
+    #[arg(long)]
+    pub allow_config_change: bool,
+    /// Faults on the in-process bus, each independent per frame and receiver, seeded by the
+    /// run's seed: `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, each once,
+    /// P in [0, 1]).
+    #[arg(long)]
+    pub faults: Option<trn_protocol::bus::FaultConfig>,
+}
+
+/// `trn train`.
+#[derive(Debug, Args, Clone)]
+pub struct TrainArgs {
+    /// Shared options.
+    #[command(flatten)]
+    pub common: Common,
+    /// Training trials per network (at least 1: `trn eval` evaluates without training;
+    /// default 300, or with --continue what the continued run had left).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: Option<u64>,
+    /// Continue from this checkpoint (life-long learning).
+    #[arg(long)]
+    pub checkpoint_in: Option<PathBuf>,
+    /// Save the trained networks here (written atomically), and the simulator's state at
+    /// the end of training beside it (`CHECKPOINT.sim`, for `--continue`).
+    #[arg(long)]
+    pub checkpoint_out: Option<PathBuf>,
+    /// Save the checkpoint every this many training trials per network as well (needs
+    /// --checkpoint-out; 0: at the end only).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    pub checkpoint_every: u64,
+    /// Continue the run that wrote `--checkpoint-in` where it stopped: its plant (drift,
+    /// wear, hysteresis), training targets and held-out sets from `CHECKPOINT.sim`, its
+    /// schedule from the trial it reached. Without it a checkpoint continues its schedule
+    /// (the learning steps it holds) on a new plant.
+    #[arg(long = "continue", requires = "checkpoint_in")]
+    pub resume: bool,
+}
+
+/// `trn eval` and `trn grasp`.
+#[derive(Debug, Args, Clone)]
+pub struct EvalArgs {
+    /// Shared options.
+    #[command(flatten)]
+    pub common: Common,
+    /// The trained networks.
+    #[arg(long)]
+    pub checkpoint_in: PathBuf,
+}
+
+/// `trn compare`.
+#[derive(Debug, Args, Clone)]
+pub struct CompareArgs {
+    /// Seeds to run: 100 .. 100 + N (tuning uses seeds 1-99 only).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Training trials per network.
+    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: u64,
+    /// Only the project preset (the test suite's band check).
+    #[arg(long)]
+    pub project_only: bool,
+    /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
+    /// default; `ideal`; `aging`).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Write every seed's figures as JSON here (.json).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// `trn train --help` names every bus form the transports accept, and every control
+    /// law by name.
+    #[test]
+    fn train_help_lists_every_bus_form_and_law() {
+        let mut cli = Cli::command();
+        let help = cli
+            .find_subcommand_mut("train")
+            .unwrap()
+            .render_long_help()
+            .to_string();
+        for form in [
+            "inproc",
+            "socketcan:IFACE",
+            "slcan:qemu",
+            "slcan:/dev/DEVICE",
+        ] {
+            assert!(help.contains(form), "{form} missing from trn train --help");
+        }
+        for law in Law::ALL {
+            assert!(help.contains(law.name()), "{} missing", law.name());
+        }
+    }
+
+    /// The clap names of the wire-coded enums are their names in reports.
+    #[test]
+    fn value_names_are_the_enums_names() {
+        use clap::ValueEnum;
+        for p in Preset::ALL {
+            assert_eq!(p.to_possible_value().unwrap().get_name(), p.name());
+        }
+        for a in Ablation::ALL {
+            assert_eq!(a.to_possible_value().unwrap().get_name(), a.name());
+        }
+        for l in Law::ALL {
+            assert_eq!(l.to_possible_value().unwrap().get_name(), l.name());
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! What the command line shows while a run goes on, and how it is interrupted: a progress
+//! bar with the time left on a terminal (nothing off one), and SIGINT/SIGTERM. The first
+//! signal asks the run to stop at the next trial boundary (it then writes what it did, marked
+//! interrupted); a second one ends the process at once (exit 130 or 143).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use std::io::IsTerminal;
+use trn_lab::Observer;
+
+/// The signals that ask a run to stop, as flags.
+#[derive(Debug, Clone, Default)]
+pub struct Interrupts {
+    int: Arc<AtomicBool>,
+    term: Arc<AtomicBool>,
+}
+
+impl Interrupts {
+    /// Installs the handlers: the first SIGINT/SIGTERM sets its flag, a second one exits
+    /// at once with 128 + the signal number.
+    pub fn install() -> std::io::Result<Interrupts> {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        use signal_hook::flag;
+        let i = Interrupts::default();
+        let any = Arc::new(AtomicBool::new(false));
+        for (sig, mine) in [(SIGINT, &i.int), (SIGTERM, &i.term)] {
+            // registered first: runs before the flag below is set by this same signal
+            flag::register_conditional_shutdown(sig, 128 + sig, any.clone())?;
+            flag::register(sig, any.clone())?;
+            flag::register(sig, mine.clone())?;
+        }
+        Ok(i)
+    }
+
+    /// True once a signal came.
+    pub fn requested(&self) -> bool {
+        self.int.load(Ordering::Relaxed) || self.term.load(Ordering::Relaxed)
+    }
+
+    /// The exit code of an interrupted run: 130 after SIGINT, 143 after SIGTERM.
+    pub fn exit_code(&self) -> Option<u8> {
+        if self.int.load(Ordering::Relaxed) {
+            Some(130)
+        } else if self.term.load(Ordering::Relaxed) {
+            Some(143)
+        } else {
+            None
+        }
+    }
+}
+
+/// The command line's observer of one run.
+pub struct Progress {
+    bar: indicatif::ProgressBar,
+    interrupts: Interrupts,
+}
+
+impl Progress {
+    /// A bar on stderr when it is a terminal and not `quiet`.
+    pub fn new(quiet: bool, interrupts: Interrupts) -> Progress {
+        let bar = if quiet || !std::io::stderr().is_terminal() {
+            indicatif::ProgressBar::hidden()
+        } else {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{prefix:>9} [{bar:40}] {pos}/{len} trials, {eta} left {msg}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        };
+        Progress { bar, interrupts }
+    }
+}
+
+impl Observer for Progress {
+    fn start(&mut self, trials: u64) {
+        self.bar.set_length(trials);
+    }
+
+    fn phase(&mut self, name: &str) {
+        self.bar.set_prefix(name.to_string());
+    }
+
+    fn trial(&mut self, _record: &trn_lab::records::TrialRecord) {
+        self.bar.inc(1);
+    }
+
+    fn message(&mut self, text: &str) {
+        self.bar.set_message(text.to_string());
+    }
+
+    fn finish(&mut self) {
+        self.bar.finish_and_clear();
+    }
+
+    fn stop_requested(&self) -> bool {
+        self.interrupts.requested()
+    }
+}

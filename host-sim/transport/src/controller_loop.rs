@@ -1,0 +1,85 @@
+//! The controller node's host loop on a real bus (the `controller-node` process on
+//! SocketCAN): the node logic is `trn-node`, the same the firmware runs; this loop adds the
+//! wall clock and sleeps until a frame arrives or the node's next deadline
+//! ([`ControllerNode::poll_timeout`]).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use trn_controller::Control;
+use trn_node::{ControllerNode, NodeConfig, NodeStats};
+use trn_protocol::bus::ReceiveTimeout;
+use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler};
+
+use crate::clock::{millis, Clock, WallClock};
+
+/// A blocking port seen through `embedded-can`'s non-blocking trait, with one frame already
+/// waited for: the loop sleeps in `receive_timeout` instead of spinning, then hands the port
+/// to [`ControllerNode::service`], the code path the firmware runs too.
+struct Waited<'a, P> {
+    port: &'a mut P,
+    first: Option<CanFrame>,
+}
+
+impl<P> embedded_can::nb::Can for Waited<'_, P>
+where
+    P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error>,
+{
+    type Frame = CanFrame;
+    type Error = trn_protocol::Error;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+        self.port.transmit(frame)
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+        match self.first.take() {
+            Some(f) => Ok(f),
+            None => self.port.receive(),
+        }
+    }
+}
+
+/// The longest sleep between turns (the `stop` flag is looked at after each).
+const MAX_SLEEP: Duration = Duration::from_millis(100);
+
+/// Runs the controller node on `port` until the runner sends `ModeChange{Idle}` or `stop`
+/// is set. Returns the controller (with its learned tables) and the node's counters.
+pub fn run<P, C: Control + ?Sized>(
+    mut port: P,
+    mut ctrl: Box<C>,
+    mode: BusMode,
+    stop: &AtomicBool,
+) -> Result<(Box<C>, NodeStats), trn_protocol::Error>
+where
+    P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let clock = WallClock::start();
+    let mut node = ControllerNode::new(NodeConfig::HOST);
+    let mut enc = Encoder::new(mode);
+    let mut rx: Reassembler = Reassembler::new(trn_protocol::DEFAULT_STALE_MS);
+    while !stop.load(Ordering::Relaxed) && !node.idle_requested() {
+        let now = millis(clock.now());
+        let sleep = node.poll_timeout().map_or(MAX_SLEEP, |due| {
+            let ahead = due.wrapping_sub(now);
+            if ahead > u32::MAX / 2 {
+                Duration::ZERO
+            } else {
+                Duration::from_millis(ahead as u64).min(MAX_SLEEP)
+            }
+        });
+        let first = port.receive_timeout(sleep)?;
+        let mut waited = Waited {
+            port: &mut port,
+            first,
+        };
+        node.service(
+            &mut *ctrl,
+            &mut rx,
+            &mut enc,
+            &mut waited,
+            millis(clock.now()),
+        )?;
+    }
+    Ok((ctrl, *node.stats()))
+}
