@@ -7,12 +7,12 @@ use plotters::prelude::*;
 use std::path::Path;
 use trn_lab::report::{smooth, Report};
 
-use crate::error::{CliError as Error, Result};
+/// A plot's result: what went wrong, for the caller to name the file.
+pub type Result<T> = std::result::Result<T, String>;
 
 /// Writes the three learning curves (stage 1, stage 2, combined) of `report` to `path`.
 pub fn learning_curves(report: &Report, path: &Path) -> Result<()> {
-    let err =
-        |e: &dyn std::fmt::Display| Error::Plot(format!("cannot draw {}: {e}", path.display()));
+    let err = |e: &dyn std::error::Error| format!("cannot draw: {}", plain(e));
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -21,19 +21,38 @@ pub fn learning_curves(report: &Report, path: &Path) -> Result<()> {
     match ext.as_str() {
         "svg" => {
             let root = SVGBackend::new(path, (1200, 1000)).into_drawing_area();
-            draw(report, &root).map_err(|e| err(&e))?;
+            draw(report, &root).map_err(|e| err(&*e))?;
             root.present().map_err(|e| err(&e))
         }
         "png" => {
             let root = BitMapBackend::new(path, (1200, 1000)).into_drawing_area();
-            draw(report, &root).map_err(|e| err(&e))?;
+            draw(report, &root).map_err(|e| err(&*e))?;
             root.present().map_err(|e| err(&e))
         }
-        _ => Err(err(&"the plot file must end in .png or .svg")),
+        _ => Err("the plot file must end in .png or .svg".into()),
     }
 }
 
 type DrawResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+/// A drawing error as a user reads it: the innermost cause (plotters' errors print their
+/// inner errors as debug dumps), an operating-system error by its own words.
+fn plain(e: &dyn std::error::Error) -> String {
+    let mut inner = e;
+    while let Some(s) = inner.source() {
+        inner = s;
+    }
+    let text = inner.to_string();
+    if let Some(code) = text
+        .split("os error ")
+        .nth(1)
+        .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse::<i32>().ok())
+    {
+        return std::io::Error::from_raw_os_error(code).to_string();
+    }
+    text
+}
 
 /// Draws the series labels of `chart` in a framed box.
 fn legend<'a, DB: DrawingBackend + 'a>(
@@ -185,8 +204,7 @@ where
 
 /// Error over the floor and grasp success against trials, one line per controller.
 pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> Result<()> {
-    let err =
-        |e: &dyn std::fmt::Display| Error::Plot(format!("cannot draw {}: {e}", path.display()));
+    let err = |e: &dyn std::fmt::Display| format!("cannot draw: {e}");
     let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
         let root = BitMapBackend::new(path, (1200, 500)).into_drawing_area();
         root.fill(&WHITE)?;
@@ -247,5 +265,5 @@ pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> 
         root.present()?;
         Ok(())
     };
-    draw().map_err(|e| err(&e))
+    draw().map_err(|e| err(&*e))
 }

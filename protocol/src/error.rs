@@ -87,6 +87,9 @@ pub enum Error {
     CandumpSyntax,
     /// The named SocketCAN interface does not exist.
     InterfaceNotFound(heapless::String<16>),
+    /// The named interface exists but takes no CAN socket (not a CAN device, or no CAN
+    /// support in this kernel).
+    NotCanInterface(heapless::String<16>),
     /// An operating-system I/O error (SocketCAN, files).
     #[cfg(feature = "std")]
     Io(std::io::ErrorKind),
@@ -130,6 +133,10 @@ impl fmt::Display for Error {
             Error::BusOff => write!(f, "bus off"),
             Error::CandumpSyntax => write!(f, "malformed candump line"),
             Error::InterfaceNotFound(name) => write!(f, "CAN interface `{name}` does not exist"),
+            Error::NotCanInterface(name) => write!(
+                f,
+                "`{name}` is not a CAN interface (or this kernel has no CAN support)"
+            ),
             #[cfg(feature = "std")]
             Error::Io(kind) => write!(f, "I/O error: {kind}"),
         }

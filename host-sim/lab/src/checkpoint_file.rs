@@ -106,3 +106,17 @@ pub fn save(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<()
     let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
     crate::output::write_durably(path, &buf[..n])
 }
+
+/// Writes the pair a run continues from: the controller's checkpoint at `path`, then the
+/// simulator's `state` beside it (`path.sim`) with the checkpoint's CRC, each durably.
+pub fn save_with_state(
+    ctrl: &Controller,
+    provenance: Provenance,
+    path: &Path,
+    mut state: crate::sim_state::SimState,
+) -> Result<()> {
+    save(ctrl, provenance, path)?;
+    let (bytes, _) = read(path)?;
+    state.checkpoint_crc = crc_of(&bytes);
+    crate::sim_state::save(&state, &crate::sim_state::path_beside(path))
+}

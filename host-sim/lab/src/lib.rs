@@ -23,6 +23,7 @@ pub mod lifelong;
 pub mod metrics;
 pub mod observe;
 pub mod output;
+pub mod ports;
 pub mod records;
 pub mod reference;
 pub mod report;

@@ -198,11 +198,11 @@ pub fn run(a: &LifelongSpec) -> Result<Vec<Curve>> {
         };
         let (ratio, grasp) = curve.worst_after(a.initial);
         eprintln!(
-            "{}: worst after {} trials: {} x the floor, grasps {:.1} %, wall {:.0} s",
+            "{}: worst after {} trials: {} x the floor, grasps {}, wall {:.0} s",
             arm.key,
             a.initial,
             px(ratio),
-            100.0 * grasp,
+            percent(grasp),
             r.wall_s
         );
         curves.push(curve);
@@ -244,7 +244,7 @@ pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
                     } else {
                         String::new()
                     };
-                    format!("{}x, {:.0} %{unreachable}", px(*r), 100.0 * p.grasp_success)
+                    format!("{}x, {}{unreachable}", px(*r), percent(p.grasp_success))
                 }
                 _ => "-".into(),
             })
@@ -260,11 +260,21 @@ pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
     for c in curves {
         let (ratio, grasp) = c.worst_after(a.initial);
         println!(
-            "| {} | {}x | {:.1} % | {} |",
+            "| {} | {}x | {} | {} |",
             c.name,
             px(ratio),
-            100.0 * grasp,
+            percent(grasp),
             c.failed_trials
         );
+    }
+}
+
+/// A fraction as a percentage with one decimal, `n/a` when there is none (no snapshot after
+/// the initial training).
+fn percent(x: f32) -> String {
+    if x.is_finite() {
+        format!("{:.1} %", 100.0 * x)
+    } else {
+        "n/a".into()
     }
 }

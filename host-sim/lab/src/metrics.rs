@@ -5,8 +5,8 @@ use trn_node::codes;
 
 use super::records::{Phase, RunLog, TrialRecord};
 use super::report::{
-    mean, Deployment, EvalSummary, FailedTrial, GraspSummary, Report, SnapshotPoint, TrialPoint,
-    VisitAndReturn,
+    mean, Deployment, EvalSummary, FailedTrial, GraspSummary, History, Report, SnapshotPoint,
+    TrialPoint, VisitAndReturn,
 };
 use super::scoring::{self, combined, StageScore};
 
@@ -28,14 +28,50 @@ fn point(r1: &TrialRecord, r2: &TrialRecord) -> TrialPoint {
     }
 }
 
+/// Why a trial failed: its cause (what counts together in tables) and what is particular
+/// to this trial (a sequence number, an error's detail).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Failure {
+    /// The kind of failure, without numbers particular to the trial.
+    pub cause: String,
+    /// What is particular to it.
+    pub detail: Option<String>,
+}
+
+impl Failure {
+    fn of(cause: impl Into<String>) -> Failure {
+        Failure {
+            cause: cause.into(),
+            detail: None,
+        }
+    }
+
+    fn with(cause: impl Into<String>, detail: String) -> Failure {
+        Failure {
+            cause: cause.into(),
+            detail: Some(detail),
+        }
+    }
+
+    /// The cause with its detail.
+    pub fn reason(&self) -> String {
+        match &self.detail {
+            Some(d) => format!("{} ({d})", self.cause),
+            None => self.cause.clone(),
+        }
+    }
+}
+
 /// Why a trial failed, or `None`. With a fixed budget, a trial that made fewer moves than
 /// asked (its readings invalid) failed too.
-pub fn failure(r: &TrialRecord) -> Option<String> {
+pub fn failure(r: &TrialRecord) -> Option<Failure> {
     if !r.target_seen {
-        return Some("target not visible from the twin arm".into());
+        return Some(Failure::of("target not visible from the twin arm"));
     }
     if r.gave_up {
-        return Some("no answer from the controller to the target and its repeats".into());
+        return Some(Failure::of(
+            "no answer from the controller to the target and its repeats",
+        ));
     }
     if r.aborted {
         // the reason is the error the controller sent right before the abort; refusals of
@@ -47,12 +83,18 @@ pub fn failure(r: &TrialRecord) -> Option<String> {
             Some((codes::INVALID_OBSERVATION, d)) => {
                 let status = ["valid", "out of view", "occluded", "not detected"];
                 let s = status.get((d & 0xFF) as usize).unwrap_or(&"invalid");
-                format!("lost light: point {} {s}", d >> 8)
+                Failure::of(format!("lost light: point {} {s}", d >> 8))
             }
-            Some((codes::OBSERVATION_TIMEOUT, d)) => format!("no observation for capture {d}"),
-            Some((codes::CONTROLLER_ERROR, d)) => format!("controller rejected an input ({d:#x})"),
-            Some((c, d)) => format!("aborted (error {c:#06x}, detail {d})"),
-            None => "aborted (its reason was lost on the bus)".into(),
+            Some((codes::OBSERVATION_TIMEOUT, d)) => {
+                Failure::with("no observation for a capture", format!("capture {d}"))
+            }
+            Some((codes::CONTROLLER_ERROR, d)) => {
+                Failure::of(format!("controller rejected an input ({d:#x})"))
+            }
+            Some((c, d)) => {
+                Failure::with(format!("aborted, error {c:#06x}"), format!("detail {d}"))
+            }
+            None => Failure::of("aborted (its reason was lost on the bus)"),
         });
     }
     if r.fine_moves != trn_protocol::FINE_MOVES_POLICY {
@@ -60,7 +102,10 @@ pub fn failure(r: &TrialRecord) -> Option<String> {
         let stages = [scoring::stage1(r), scoring::stage2(r)];
         for s in stages.iter().flatten() {
             if s.errors_px.len() < want {
-                return Some(format!("{} of {want} moves scored", s.errors_px.len()));
+                return Some(Failure::with(
+                    "fewer moves than the budget",
+                    format!("{} of {want} moves scored", s.errors_px.len()),
+                ));
             }
         }
     }
@@ -82,6 +127,17 @@ pub fn by_move_means(trials: &[Vec<f32>]) -> Vec<f32> {
         .collect()
 }
 
+/// The training curve and the snapshots of `log` (what a checkpoint's `.sim` keeps of the
+/// run so far).
+pub fn history(log: &RunLog) -> History {
+    let mut r = Report::default();
+    for (r1, r2) in log.pairs(Phase::Training) {
+        r.push_trial(&point(r1, r2));
+    }
+    r.learning_curve = snapshots(log);
+    r.history()
+}
+
 /// Fills the figures of `report` from `log`.
 pub fn fill(report: &mut Report, log: &RunLog, eval_targets: usize, grasps: usize) {
     for (r1, r2) in log.pairs(Phase::Training) {
@@ -93,10 +149,11 @@ pub fn fill(report: &mut Report, log: &RunLog, eval_targets: usize, grasps: usiz
         .trials
         .iter()
         .filter_map(|r| {
-            failure(r).map(|reason| FailedTrial {
+            failure(r).map(|f| FailedTrial {
                 trial: r.trial,
                 phase: format!("{:?}", r.phase).to_lowercase(),
-                reason,
+                reason: f.reason(),
+                cause: f.cause,
             })
         })
         .collect();
@@ -329,8 +386,8 @@ fn grasp_summary(log: &RunLog, phase: Phase, grasps: usize) -> GraspSummary {
     let (mut ok, mut gc, mut gct, mut gmm, mut gdeg, mut gmoves) =
         (0usize, vec![], vec![], vec![], vec![], vec![]);
     for r in log.phase(phase) {
-        if let Some(reason) = failure(r) {
-            *g.failure_causes.entry(reason).or_default() += 1;
+        if let Some(f) = failure(r) {
+            *g.failure_causes.entry(f.cause).or_default() += 1;
             continue;
         }
         if let (Some(a), Some(b)) = (scoring::stage1(r), scoring::stage2(r)) {
@@ -399,23 +456,24 @@ mod tests {
             (codes::INVALID_OBSERVATION, occluded),
             (codes::TRIAL_ABORTED, 7),
         ]);
-        assert_eq!(failure(&r).unwrap(), "lost light: point 1 occluded");
+        assert_eq!(
+            failure(&r).unwrap().reason(),
+            "lost light: point 1 occluded"
+        );
         let r = aborted(&[(codes::OUT_OF_ORDER, 7), (codes::TRIAL_ABORTED, 7)]);
         assert_eq!(
-            failure(&r).unwrap(),
+            failure(&r).unwrap().reason(),
             "aborted (its reason was lost on the bus)"
         );
         let r = aborted(&[
             (codes::SERVO_TIMEOUT, (3 << 16) | 12),
             (codes::TRIAL_ABORTED, 7),
         ]);
+        let f = failure(&r).unwrap();
         assert_eq!(
-            failure(&r).unwrap(),
-            format!(
-                "aborted (error {:#06x}, detail {})",
-                codes::SERVO_TIMEOUT,
-                (3 << 16) | 12
-            )
+            f.cause,
+            format!("aborted, error {:#06x}", codes::SERVO_TIMEOUT)
         );
+        assert_eq!(f.detail, Some(format!("detail {}", (3 << 16) | 12)));
     }
 }

@@ -77,20 +77,50 @@ fn usage(path: &Path, what: &str) -> LabError {
     LabError::Usage(format!("{}: {what}", path.display()))
 }
 
-/// The same file, whether or not it exists yet: the canonical path of an existing file,
-/// else the canonical directory joined with the name.
-fn identity(path: &Path) -> PathBuf {
+/// What tells two paths apart: the file itself (device and inode) when it exists, so a
+/// hard link is the same file; else the canonical directory joined with the name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Identity {
+    File(u64, u64),
+    Path(PathBuf),
+}
+
+fn identity(path: &Path) -> Identity {
+    #[cfg(unix)]
+    if let Ok(m) = fs::metadata(path) {
+        use std::os::unix::fs::MetadataExt;
+        return Identity::File(m.dev(), m.ino());
+    }
     if let Ok(p) = fs::canonicalize(path) {
-        return p;
+        return Identity::Path(p);
     }
     let dir = parent(path);
     let name = path.file_name().map(PathBuf::from).unwrap_or_default();
-    fs::canonicalize(&dir).unwrap_or(dir).join(name)
+    Identity::Path(fs::canonicalize(&dir).unwrap_or(dir).join(name))
 }
 
 /// Checks one output path against rule 1 (its inputs aside): what it is now, its extension,
 /// its directory.
 pub fn check_path(path: &Path, kind: Kind) -> Result<()> {
+    match fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            return Err(usage(
+                path,
+                "is a symbolic link: give the path of the file itself",
+            ))
+        }
+        Ok(m) if m.is_dir() => return Err(usage(path, "is a directory, not a file")),
+        Ok(m) if !m.is_file() => {
+            return Err(usage(
+                path,
+                "is not a regular file (a device, FIFO or socket): outputs are files",
+            ))
+        }
+        Ok(m) if m.permissions().readonly() => {
+            return Err(usage(path, "is read-only"));
+        }
+        _ => {}
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -120,25 +150,6 @@ pub fn check_path(path: &Path, kind: Kind) -> Result<()> {
                 ),
             ))
         }
-    }
-    match fs::symlink_metadata(path) {
-        Ok(m) if m.file_type().is_symlink() => {
-            return Err(usage(
-                path,
-                "is a symbolic link: give the path of the file itself",
-            ))
-        }
-        Ok(m) if m.is_dir() => return Err(usage(path, "is a directory, not a file")),
-        Ok(m) if !m.is_file() => {
-            return Err(usage(
-                path,
-                "is not a regular file (a device, FIFO or socket): outputs are files",
-            ))
-        }
-        Ok(m) if m.permissions().readonly() => {
-            return Err(usage(path, "is read-only"));
-        }
-        _ => {}
     }
     clean_stale_temporaries(path);
     // the directory exists and takes a new file

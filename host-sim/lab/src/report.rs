@@ -146,8 +146,11 @@ pub struct FailedTrial {
     pub trial: u32,
     /// The part of the run.
     pub phase: String,
-    /// Why.
+    /// Why, with what is particular to this trial.
     pub reason: String,
+    /// The kind of failure (what counts together in tables).
+    #[serde(default)]
+    pub cause: String,
 }
 
 /// The paper's visit-then-return protocol, kept as a secondary evaluation.

@@ -17,6 +17,7 @@ use crate::checkpoint_file;
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
 use crate::output::OutputPlan;
+use crate::ports::ControllerPort;
 use crate::reference::NominalIk;
 use crate::report::Report;
 use crate::session::{Setup, Start};
@@ -167,19 +168,21 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
         }
     };
     let end_state = setup.take_end_state();
-    if let Some(ctrl) = &trained {
-        if let Some(p) = outputs.checkpoint() {
-            let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
-            checkpoint_file::save(ctrl, provenance, p)?;
-        }
-    }
-    // the simulator's half, after the controller's (over SocketCAN the node wrote it), paired
-    // with it by its CRC
-    if let (Some(p), Some(mut state)) = (outputs.checkpoint(), end_state) {
-        if p.exists() {
-            let (bytes, _) = checkpoint_file::read(p)?;
-            state.checkpoint_crc = checkpoint_file::crc_of(&bytes);
-            sim_state::save(&state, &sim_state::path_beside(p))?;
+    if let Some(p) = outputs.checkpoint() {
+        let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
+        match (&trained, end_state) {
+            (Some(ctrl), Some(state)) => {
+                checkpoint_file::save_with_state(ctrl, provenance, p, *state)?
+            }
+            (Some(ctrl), None) => checkpoint_file::save(ctrl, provenance, p)?,
+            // over SocketCAN the node wrote the controller's half: the simulator's half
+            // goes beside it, paired with it by its CRC
+            (None, Some(mut state)) if p.exists() => {
+                let (bytes, _) = checkpoint_file::read(p)?;
+                state.checkpoint_crc = checkpoint_file::crc_of(&bytes);
+                sim_state::save(&state, &sim_state::path_beside(p))?;
+            }
+            (None, _) => {}
         }
     }
     report.wall_s = started.elapsed().as_secs_f64();
@@ -194,7 +197,10 @@ fn inline<C: Control + ?Sized>(
     ctrl: Box<C>,
     plant: Plant,
     report: &mut Report,
-) -> Result<Box<C>> {
+) -> Result<Box<C>>
+where
+    SimulatedBus<C>: ControllerPort,
+{
     let spec = setup.spec();
     let mode = if spec.bus.fd {
         BusMode::Fd

@@ -14,8 +14,10 @@ use trn_controller::Config;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{CanFrame, Mode, FINE_MOVES_POLICY};
 
+use super::metrics;
 use super::observe::Observer;
 use super::records::{Phase, RunLog, TrialKind, TrialRecord};
+use super::report::History;
 use super::runner::{Runner, Source, TrialSpec};
 use super::scoring::{self, combined};
 use super::sim_state::SimState;
@@ -84,11 +86,37 @@ struct HeldOutSets {
     grasps: Vec<HeldOut>,
 }
 
+/// Periodic checkpoints: every `every` training trials per network, `save` gets the runner
+/// (whose port may hold the controller) and the simulator's state at that point.
+pub struct Checkpoints<'a, P> {
+    /// Training trials per network between two checkpoints.
+    pub every: usize,
+    /// Writes one.
+    pub save: &'a mut dyn FnMut(&Runner<P>, SimState) -> Result<()>,
+}
+
+/// What a run's schedule needs besides the runner and the plan.
+pub struct Context<'a, P> {
+    /// The controller's configuration (its priming length paces the schedule).
+    pub cfg: &'a Config,
+    /// Draws the held-out targets (apart from the training targets).
+    pub seed: u64,
+    /// Watches the run and may interrupt it.
+    pub observer: &'a mut dyn Observer,
+    /// The simulation to continue (a simulator checkpoint, [`SimState`]).
+    pub resume: Option<&'a SimState>,
+    /// Periodic checkpoints, if asked.
+    pub checkpoints: Option<Checkpoints<'a, P>>,
+}
+
 /// The runner and the log of a run, with its observer: each trial goes through here.
 struct Session<'a, P> {
     runner: &'a mut Runner<P>,
     log: RunLog,
     observer: &'a mut dyn Observer,
+    seed: u64,
+    earlier: Option<&'a History>,
+    checkpoints: Option<Checkpoints<'a, P>>,
 }
 
 impl<P> Session<'_, P>
@@ -114,33 +142,49 @@ where
         self.keep(rec);
         Ok(())
     }
+
+    /// The simulator's state now, after `done` training trials per network of `planned`,
+    /// with the learning curve so far (the continued run's before it).
+    fn state(&self, done: usize, planned: usize) -> SimState {
+        let (runner_rng, runner_trial) = self.runner.sequence();
+        let mut history = self.earlier.cloned().unwrap_or_default();
+        let now = metrics::history(&self.log);
+        history.stage1_error_px.extend(now.stage1_error_px);
+        history.stage2_error_px.extend(now.stage2_error_px);
+        history.fine_moves.extend(now.fine_moves);
+        history.fine_moves_stage2.extend(now.fine_moves_stage2);
+        history.learning_curve.extend(now.learning_curve);
+        SimState {
+            version: super::sim_state::VERSION,
+            seed: self.seed,
+            trials_done: done,
+            trials_planned: planned,
+            history,
+            runner_rng,
+            runner_trial,
+            checkpoint_crc: 0,
+            plant: self.runner.rig().plant().clone(),
+        }
+    }
 }
 
-/// Runs `plan` (the controller configured with `cfg`, for its priming length) and ends
-/// the session. `seed` draws the held-out targets (apart from the training targets), from
-/// the plant as it is before `resume` (a simulator checkpoint, [`SimState`]) replaces it:
-/// a continued run keeps the held-out sets of the run it continues. The log keeps the
-/// simulator's state at the end of training (or where an interrupt stopped it: a
-/// checkpoint of that state continues the run with `--continue`).
-pub fn run<P>(
-    runner: &mut Runner<P>,
-    mut plan: Plan,
-    cfg: &Config,
-    seed: u64,
-    observer: &mut dyn Observer,
-    resume: Option<&SimState>,
-) -> Result<RunLog>
+/// Runs `plan` and ends the session. The held-out targets are drawn from the plant as it is
+/// before `cx.resume` (a simulator checkpoint, [`SimState`]) replaces it: a continued run
+/// keeps the held-out sets of the run it continues. The log keeps the simulator's state at
+/// the end of training (or where an interrupt stopped it: a checkpoint of that state
+/// continues the run with `--continue`).
+pub fn run<'a, P>(runner: &'a mut Runner<P>, mut plan: Plan, cx: Context<'a, P>) -> Result<RunLog>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    observer.start(plan.total() as u64);
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x4E1D_0075_EED5);
+    cx.observer.start(plan.total() as u64);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(cx.seed ^ 0x4E1D_0075_EED5);
     let plant = runner.rig().plant();
     let sets = HeldOutSets {
         targets: HeldOut::set(plant, &mut rng, plan.eval_targets, false)?,
         grasps: HeldOut::set(plant, &mut rng, plan.grasps, true)?,
     };
-    if let Some(s) = resume {
+    if let Some(s) = cx.resume {
         *runner.rig_mut().plant_mut() = s.plant.clone();
         runner.continue_sequence((s.runner_rng.clone(), s.runner_trial));
         plan.first_trial = s.trials_done;
@@ -148,9 +192,12 @@ where
     let mut s = Session {
         runner,
         log: RunLog::default(),
-        observer,
+        observer: cx.observer,
+        seed: cx.seed,
+        earlier: cx.resume.map(|r| &r.history),
+        checkpoints: cx.checkpoints,
     };
-    train(&mut s, plan, cfg, &sets, seed)?;
+    train(&mut s, plan, cx.cfg, &sets)?;
     if !s.log.interrupted {
         evaluate(&mut s, plan, &sets)?;
     }
@@ -159,18 +206,14 @@ where
     Ok(s.log)
 }
 
-/// The training trials with their snapshots; the simulator's state where they ended.
-fn train<P>(
-    s: &mut Session<P>,
-    plan: Plan,
-    cfg: &Config,
-    sets: &HeldOutSets,
-    seed: u64,
-) -> Result<()>
+/// The training trials with their snapshots and periodic checkpoints; the simulator's
+/// state where they ended.
+fn train<P>(s: &mut Session<P>, plan: Plan, cfg: &Config, sets: &HeldOutSets) -> Result<()>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     let first = plan.first_trial;
+    let planned = first + plan.trials;
     if plan.trials > 0 {
         let primed = first as u32 >= cfg.supervised_steps;
         s.runner.mode(if primed {
@@ -183,7 +226,7 @@ where
     let mut recent = Vec::new();
     let learning = |i: usize| plan.learn_trials.is_none_or(|n| i < n);
     let mut done = first;
-    for i in first..first + plan.trials {
+    for i in first..planned {
         if s.stopping() {
             break;
         }
@@ -230,19 +273,18 @@ where
             s.runner.mode(resume)?;
             s.observer.phase("training");
         }
+        let due = match &s.checkpoints {
+            Some(c) => c.every > 0 && done.is_multiple_of(c.every) && done < planned,
+            None => false,
+        };
+        if due {
+            let state = s.state(done, planned);
+            if let Some(c) = &mut s.checkpoints {
+                (c.save)(s.runner, state)?;
+            }
+        }
     }
-    let (runner_rng, runner_trial) = s.runner.sequence();
-    s.log.end_of_training = Some(Box::new(SimState {
-        version: super::sim_state::VERSION,
-        seed,
-        trials_done: done,
-        trials_planned: first + plan.trials,
-        history: Default::default(),
-        runner_rng,
-        runner_trial,
-        checkpoint_crc: 0,
-        plant: s.runner.rig().plant().clone(),
-    }));
+    s.log.end_of_training = Some(Box::new(s.state(done, planned)));
     Ok(())
 }
 

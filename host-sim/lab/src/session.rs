@@ -6,21 +6,24 @@
 use std::rc::Rc;
 
 use embedded_can::blocking::Can;
+use trn_controller::checkpoint::Provenance;
 use trn_controller::Config;
 use trn_plant::Plant;
 use trn_protocol::bus::{ReceiveTimeout, RecordingPort};
 use trn_protocol::{BusMode, CanFrame, SessionConfig};
 use trn_transport::{Clock, WallClock};
 
+use crate::checkpoint_file;
 use crate::conformance::{self, Patience};
 use crate::error::{io, LabError, Result};
 use crate::metrics;
 use crate::observe::Observer;
 use crate::output::OutputPlan;
+use crate::ports::ControllerPort;
 use crate::report::Report;
 use crate::rig::Rig;
 use crate::runner::{Runner, Timing};
-use crate::schedule::{self, Plan};
+use crate::schedule::{self, Checkpoints, Context, Plan};
 use crate::sim_state::SimState;
 use crate::spec::{Command, RunSpec};
 
@@ -71,7 +74,7 @@ impl<'a> Setup<'a> {
     /// [`Setup::drive`] on the wall clock (a real bus).
     pub fn drive_wall<P>(&mut self, port: P, plant: Plant, report: &mut Report) -> Result<P>
     where
-        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout + ControllerPort,
     {
         self.drive(port, Rc::new(WallClock::start()), plant, report)
     }
@@ -86,7 +89,7 @@ impl<'a> Setup<'a> {
         report: &mut Report,
     ) -> Result<P>
     where
-        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout + ControllerPort,
     {
         let Some(mut log) = self.start.outputs.candump()? else {
             return self.session(port, clock, plant, report);
@@ -117,7 +120,7 @@ impl<'a> Setup<'a> {
         report: &mut Report,
     ) -> Result<P>
     where
-        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout + ControllerPort,
     {
         let spec = self.start.spec;
         let profile = spec.bus.spec.profile(spec.bus.external_controller);
@@ -155,14 +158,28 @@ impl<'a> Setup<'a> {
             runner.configure(s)?;
         }
         let plan = self.start.plan;
-        let log = schedule::run(
-            &mut runner,
-            plan,
-            &self.start.cfg,
-            spec.seed,
-            &mut *self.observer,
-            self.start.resume,
-        );
+        let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
+        let target = self.start.outputs.checkpoint();
+        let mut save = |runner: &Runner<P>, state: SimState| -> Result<()> {
+            match (runner.rig().port().controller(), target) {
+                (Some(ctrl), Some(path)) => {
+                    checkpoint_file::save_with_state(ctrl, provenance, path, state)
+                }
+                _ => Ok(()),
+            }
+        };
+        let checkpoints = (spec.outputs.checkpoint_every > 0).then_some(Checkpoints {
+            every: spec.outputs.checkpoint_every,
+            save: &mut save,
+        });
+        let cx = Context {
+            cfg: &self.start.cfg,
+            seed: spec.seed,
+            observer: &mut *self.observer,
+            resume: self.start.resume,
+            checkpoints,
+        };
+        let log = schedule::run(&mut runner, plan, cx);
         report.bus_stats.runner = runner.stats();
         let mut log = log?;
         report.interrupted = log.interrupted;
@@ -172,10 +189,7 @@ impl<'a> Setup<'a> {
         if let Some(earlier) = self.start.resume {
             report.continue_from(&earlier.history);
         }
-        self.end_state = log.end_of_training.take().map(|mut s| {
-            s.history = report.history();
-            s
-        });
+        self.end_state = log.end_of_training.take();
         Ok(runner.into_rig().into_port())
     }
 }

@@ -260,8 +260,11 @@ impl RunSpec {
         if plan.resume && self.checkpoint_in.is_none() {
             return usage("--continue needs --checkpoint-in");
         }
-        if self.outputs.checkpoint_every > 0 && self.outputs.checkpoint.is_none() {
-            return usage("--checkpoint-every needs --checkpoint-out");
+        if self.outputs.checkpoint_every > 0
+            && (self.outputs.checkpoint.is_none()
+                || profile.controller != trn_transport::ControllerSite::Inline)
+        {
+            return usage("--checkpoint-every needs --checkpoint-out and the in-process controller (a controller process saves its tables at the end)");
         }
         if !(self.bus.timeout_s.is_finite()
             && self.bus.timeout_s > 0.0

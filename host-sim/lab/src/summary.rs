@@ -261,13 +261,13 @@ pub fn check_failures(r: &Report) -> Result<()> {
     }
     let mut reasons = std::collections::BTreeMap::<String, usize>::new();
     for f in &failed {
-        // the same reason with other numbers (trial, seq) counts together
-        let kind: String = f
-            .reason
-            .chars()
-            .map(|c| if c.is_ascii_digit() { 'N' } else { c })
-            .collect();
-        *reasons.entry(kind).or_default() += 1;
+        // the same cause with other details (trial, seq) counts together
+        let cause = if f.cause.is_empty() {
+            &f.reason
+        } else {
+            &f.cause
+        };
+        *reasons.entry(cause.clone()).or_default() += 1;
     }
     Err(Error::TooManyFailures {
         failed: failed.len(),
@@ -300,6 +300,7 @@ mod tests {
             trial: 1,
             phase: phase.into(),
             reason: "lost light".into(),
+            cause: "lost light".into(),
         };
         let mut r = Report {
             evaluation_trials: 20,

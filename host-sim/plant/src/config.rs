@@ -40,15 +40,57 @@ pub struct JointConfig {
 #[serde(deny_unknown_fields)]
 pub struct CameraConfig {
     /// Image width and height (pixels).
+    #[serde(deserialize_with = "exactly")]
     pub resolution: [u32; 2],
     /// Focal length (pixels).
     pub focal_px: f64,
     /// Camera centre in the arm's base frame (mm; x forward, y left, z up).
+    #[serde(deserialize_with = "exactly")]
     pub position_mm: [f64; 3],
     /// The point the optical axis passes through (mm).
+    #[serde(deserialize_with = "exactly")]
     pub look_at_mm: [f64; 3],
     /// Radial distortion coefficients k1, k2 (normalised image coordinates).
+    #[serde(deserialize_with = "exactly")]
     pub distortion: [f64; 2],
+}
+
+/// A list of exactly `N` values (a parser that reads the first `N` of a longer list would
+/// take `[1024, 768, 3]` for a resolution without a word). Read as a tuple of `N`, so the
+/// binary formats (a simulator checkpoint) read what they wrote.
+fn exactly<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct Exactly<T, const N: usize>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>, const N: usize> serde::de::Visitor<'de> for Exactly<T, N> {
+        type Value = [T; N];
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            write!(f, "a list of {N} values")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<[T; N], A::Error> {
+            let mut v = Vec::with_capacity(N);
+            while v.len() < N {
+                match seq.next_element()? {
+                    Some(x) => v.push(x),
+                    None => break,
+                }
+            }
+            let mut n = v.len();
+            while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                n += 1;
+            }
+            if n != N {
+                return Err(serde::de::Error::custom(format!(
+                    "expected a list of {N} values, got {n}"
+                )));
+            }
+            v.try_into()
+                .map_err(|_| serde::de::Error::custom("expected a list of values"))
+        }
+    }
+    d.deserialize_tuple(N, Exactly::<T, N>(std::marker::PhantomData))
 }
 
 /// Slow drift and wear, off by default.

@@ -24,9 +24,15 @@ fn run_one(spec: RunSpec, interrupts: &Interrupts, print_training: bool) -> Resu
     Ok(())
 }
 
+/// Draws the learning curves into a temporary file beside `path` that becomes `path` only
+/// when whole (the output rule of every file).
 #[cfg(feature = "plot")]
 fn plot(report: &trn_lab::Report, path: &std::path::Path) -> Result<()> {
-    trn_sim::plot::learning_curves(report, path)
+    let pending = trn_lab::output::PendingFile::create(path)?;
+    trn_sim::plot::learning_curves(report, pending.temporary_path())
+        .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
+    pending.commit()?;
+    Ok(())
 }
 
 #[cfg(not(feature = "plot"))]
@@ -84,7 +90,13 @@ fn main() -> ExitCode {
 fn lifelong_run(spec: &lifelong::LifelongSpec) -> Result<()> {
     let curves = lifelong::run(spec)?;
     #[cfg(feature = "plot")]
-    trn_sim::plot::lifelong(&curves, &spec.out.join("lifelong.png"))?;
+    {
+        let path = spec.out.join("lifelong.png");
+        let pending = trn_lab::output::PendingFile::create(&path)?;
+        trn_sim::plot::lifelong(&curves, pending.temporary_path())
+            .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
+        pending.commit()?;
+    }
     #[cfg(not(feature = "plot"))]
     let _ = curves;
     Ok(())

@@ -32,6 +32,11 @@ impl<P, W: Write, C: FnMut() -> u64> RecordingPort<P, W, C> {
         self.recorder.record(t, frame)
     }
 
+    /// The port it records.
+    pub fn port(&self) -> &P {
+        &self.port
+    }
+
     /// Unwraps into the port and the flushed writer.
     pub fn into_parts(self) -> Result<(P, W)> {
         Ok((self.port, self.recorder.into_inner()?))

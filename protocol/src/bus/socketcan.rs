@@ -21,17 +21,17 @@ pub struct SocketCanPort {
 impl SocketCanPort {
     /// Opens `iface` (e.g. `vcan0`); [`Error::InterfaceNotFound`] if it does not exist.
     pub fn open(iface: &str) -> Result<SocketCanPort> {
-        let not_found = || {
+        let name = || {
             let mut name = heapless::String::new();
             for c in iface.chars() {
                 if name.push(c).is_err() {
                     break;
                 }
             }
-            Error::InterfaceNotFound(name)
+            name
         };
-        let addr = CanAddr::from_iface(iface).map_err(|_| not_found())?;
-        let socket = CanFdSocket::open_addr(&addr)?;
+        let addr = CanAddr::from_iface(iface).map_err(|_| Error::InterfaceNotFound(name()))?;
+        let socket = CanFdSocket::open_addr(&addr).map_err(|_| Error::NotCanInterface(name()))?;
         Ok(SocketCanPort {
             socket,
             iface: iface.to_owned(),
