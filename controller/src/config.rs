@@ -202,6 +202,17 @@ crate::wire_enum! {
         /// A model-based reference outside this crate (the simulator's nominal inverse
         /// kinematics, host only): [`crate::Controller`] refuses it.
         Model = 2 => "model",
+        /// The physical limit: a controller that solves on an exact copy of the simulated
+        /// plant (host only): [`crate::Controller`] refuses it.
+        Oracle = 3 => "oracle",
+    }
+}
+
+impl Law {
+    /// True for the laws that need the simulator in the same process (the model-based
+    /// reference and the oracle): no controller of this crate runs them.
+    pub const fn host_only(self) -> bool {
+        matches!(self, Law::Model | Law::Oracle)
     }
 }
 

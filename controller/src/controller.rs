@@ -209,7 +209,7 @@ impl Controller {
         if self.busy() {
             return Err(Error::Busy);
         }
-        if cfg.law == Law::Model {
+        if cfg.law.host_only() {
             return Err(Error::UnsupportedLaw);
         }
         self.stage1.set_config(cfg.stage1)?;
@@ -282,7 +282,7 @@ impl Controller {
             Task::Grasp { v, c, learn } => {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
                 match self.cfg.law {
-                    Law::Trn | Law::Model => self.stage2.check_input(&c)?,
+                    Law::Trn | Law::Model | Law::Oracle => self.stage2.check_input(&c)?,
                     Law::Broyden => self.broyden2.check_input(&c)?,
                 }
                 let p = self.begin1(&v, None, learn)?;
@@ -302,28 +302,32 @@ impl Controller {
         learn: bool,
     ) -> Result<[f32; 5]> {
         match self.cfg.law {
-            Law::Trn | Law::Model => self.stage1.begin_with(v, supervised, learn, self.fine),
+            Law::Trn | Law::Model | Law::Oracle => {
+                self.stage1.begin_with(v, supervised, learn, self.fine)
+            }
             Law::Broyden => self.broyden1.begin_with(v, supervised.is_some(), self.fine),
         }
     }
 
     fn observe1(&mut self, v: &[f32; 8]) -> Result<StageStep<5>> {
         match self.cfg.law {
-            Law::Trn | Law::Model => self.stage1.observe(v),
+            Law::Trn | Law::Model | Law::Oracle => self.stage1.observe(v),
             Law::Broyden => self.broyden1.observe(v),
         }
     }
 
     fn observe2(&mut self, c: &[f32; 4]) -> Result<StageStep<3>> {
         match self.cfg.law {
-            Law::Trn | Law::Model => self.stage2.observe(c),
+            Law::Trn | Law::Model | Law::Oracle => self.stage2.observe(c),
             Law::Broyden => self.broyden2.observe(c),
         }
     }
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
         let p = match self.cfg.law {
-            Law::Trn | Law::Model => self.stage2.begin_with(c, None, learn, self.fine)?,
+            Law::Trn | Law::Model | Law::Oracle => {
+                self.stage2.begin_with(c, None, learn, self.fine)?
+            }
             Law::Broyden => self.broyden2.begin_with(c, false, self.fine)?,
         };
         self.running = Running::Stage2;

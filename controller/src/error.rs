@@ -30,7 +30,7 @@ pub enum Error {
     /// A fixed budget of fine moves beyond what a trial can trace (31).
     FineMoveBudget,
     /// The configuration asks for a control law this controller does not run
-    /// ([`crate::Law::Model`] is a host-side reference, not this crate's).
+    /// (the model-based reference and the oracle are host-side, [`crate::Law::host_only`]).
     UnsupportedLaw,
     /// An observation arrived while none was awaited.
     UnexpectedObservation,

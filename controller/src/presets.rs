@@ -112,7 +112,7 @@ mod tests {
         assert_eq!(crate::Law::from_code(crate::Law::COUNT), None);
         assert_eq!(
             (Preset::COUNT, Ablation::COUNT, crate::Law::COUNT),
-            (3, 5, 3)
+            (3, 5, 4)
         );
     }
 

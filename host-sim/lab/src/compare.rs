@@ -142,6 +142,9 @@ impl Entry {
     pub fn name(&self) -> String {
         match (self.law, self.ablation) {
             (Law::Broyden, _) => "Broyden servo (no training)".to_string(),
+            (Law::Oracle, _) => {
+                "oracle (solves on an exact copy of the plant: the physical limit)".to_string()
+            }
             (Law::Model, _) => {
                 "nominal inverse kinematics (calibrated model, no learning)".to_string()
             }
@@ -156,7 +159,7 @@ impl Entry {
     /// Training trials per network: none for a method that does not train.
     pub fn trials(&self, trials: usize) -> usize {
         match self.law {
-            Law::Broyden | Law::Model => 0,
+            Law::Broyden | Law::Model | Law::Oracle => 0,
             Law::Trn => trials,
         }
     }

@@ -5,8 +5,8 @@ use trn_node::codes;
 
 use super::records::{Phase, RunLog, TrialRecord};
 use super::report::{
-    mean, Deployment, EvalSummary, FailedTrial, GraspSummary, History, Report, SnapshotPoint,
-    TrialPoint, VisitAndReturn,
+    mean, quantile, Deployment, EvalSummary, FailedTrial, GraspSummary, History, Report,
+    SnapshotPoint, TrialPoint, VisitAndReturn,
 };
 use super::scoring::{self, combined, StageScore};
 
@@ -198,8 +198,18 @@ fn column(
     moves: usize,
     f: impl Fn(&StageScore, &StageScore, usize) -> f32,
 ) -> Vec<f32> {
+    summary(pairs, moves, f, mean)
+}
+
+/// A statistic over the targets of a per-target figure, after each move.
+fn summary(
+    pairs: &[(StageScore, StageScore)],
+    moves: usize,
+    f: impl Fn(&StageScore, &StageScore, usize) -> f32,
+    stat: impl Fn(&[f32]) -> f32,
+) -> Vec<f32> {
     (0..moves)
-        .map(|m| mean(&pairs.iter().map(|(a, b)| f(a, b, m)).collect::<Vec<_>>()))
+        .map(|m| stat(&pairs.iter().map(|(a, b)| f(a, b, m)).collect::<Vec<_>>()))
         .collect()
 }
 
@@ -232,7 +242,23 @@ fn deployment(log: &RunLog, phase: Phase, targets: usize) -> Deployment {
         .iter()
         .map(|(a, b)| combined(a.noise_floor_px, b.noise_floor_px))
         .collect();
+    let true_px = |a: &StageScore, b: &StageScore, m| {
+        combined(at(&a.errors_true_px, m), at(&b.errors_true_px, m))
+    };
+    let measured_px =
+        |a: &StageScore, b: &StageScore, m| combined(at(&a.errors_px, m), at(&b.errors_px, m));
+    let tail = |f: &dyn Fn(&StageScore, &StageScore, usize) -> f32, q: f32| {
+        summary(&pairs, moves, f, |x| quantile(x, q))
+    };
     Deployment {
+        combined_true_p50_px: tail(&true_px, 0.5),
+        combined_true_p90_px: tail(&true_px, 0.9),
+        combined_true_p95_px: tail(&true_px, 0.95),
+        combined_true_max_px: tail(&true_px, 1.0),
+        combined_measured_p50_px: tail(&measured_px, 0.5),
+        combined_measured_p90_px: tail(&measured_px, 0.9),
+        combined_measured_p95_px: tail(&measured_px, 0.95),
+        combined_measured_max_px: tail(&measured_px, 1.0),
         targets,
         fine_moves,
         stage1_true_px: column(&pairs, moves, |a, _, m| at(&a.errors_true_px, m)),

@@ -8,6 +8,7 @@ use trn_controller::Controller;
 use trn_protocol::bus::RecordingPort;
 use trn_transport::inproc::SimulatedBus;
 
+use crate::oracle::Oracle;
 use crate::reference::NominalIk;
 
 /// A session's port, and the project's controller if this port holds it.
@@ -25,6 +26,8 @@ impl ControllerPort for SimulatedBus<Controller> {
 }
 
 impl ControllerPort for SimulatedBus<NominalIk> {}
+
+impl ControllerPort for SimulatedBus<Oracle> {}
 
 impl<P: ControllerPort, W: Write, C: FnMut() -> u64> ControllerPort for RecordingPort<P, W, C> {
     fn controller(&self) -> Option<&Controller> {

@@ -93,6 +93,31 @@ pub struct Deployment {
     pub stage2_measured_px: Vec<f32>,
     /// The same combined.
     pub combined_measured_px: Vec<f32>,
+    /// The tails of the combined noise-free error after each move, over the targets: the
+    /// median, the 90th and 95th percentiles and the largest (nearest rank).
+    #[serde(default)]
+    pub combined_true_p50_px: Vec<f32>,
+    /// 90th percentile.
+    #[serde(default)]
+    pub combined_true_p90_px: Vec<f32>,
+    /// 95th percentile.
+    #[serde(default)]
+    pub combined_true_p95_px: Vec<f32>,
+    /// The largest.
+    #[serde(default)]
+    pub combined_true_max_px: Vec<f32>,
+    /// The same tails of the combined measured error.
+    #[serde(default)]
+    pub combined_measured_p50_px: Vec<f32>,
+    /// 90th percentile.
+    #[serde(default)]
+    pub combined_measured_p90_px: Vec<f32>,
+    /// 95th percentile.
+    #[serde(default)]
+    pub combined_measured_p95_px: Vec<f32>,
+    /// The largest.
+    #[serde(default)]
+    pub combined_measured_max_px: Vec<f32>,
     /// The floor of the combined measured error: what the camera noise alone gives at the
     /// target (a second reading against the first).
     pub noise_floor_px: f32,
@@ -371,6 +396,18 @@ pub fn mean(x: &[f32]) -> f32 {
     }
 }
 
+/// The `q`-quantile (0..=1) of the finite values by nearest rank: the smallest value with
+/// at least a fraction `q` of the values at or below it; NaN when there are none.
+pub fn quantile(x: &[f32], q: f32) -> f32 {
+    let mut v: Vec<f32> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return f32::NAN;
+    }
+    v.sort_by(f32::total_cmp);
+    let rank = (q * v.len() as f32).ceil() as usize;
+    v[rank.clamp(1, v.len()) - 1]
+}
+
 /// Moving average with a centred window of `w` trials (for plots and "by trial N" figures).
 pub fn smooth(x: &[f32], w: usize) -> Vec<f32> {
     let h = w / 2;
@@ -405,6 +442,17 @@ mod tests {
         assert!(s.contains("\"stage1_error_px\":[3.0]"));
         let back: Report = serde_json::from_str(&s).unwrap();
         assert_eq!(back, r);
+    }
+
+    #[test]
+    fn quantiles_by_nearest_rank() {
+        let x: Vec<f32> = (1..=20).map(|i| i as f32).collect();
+        assert_eq!(quantile(&x, 0.5), 10.0);
+        assert_eq!(quantile(&x, 0.9), 18.0);
+        assert_eq!(quantile(&x, 0.95), 19.0);
+        assert_eq!(quantile(&x, 1.0), 20.0);
+        assert_eq!(quantile(&[3.0, f32::NAN, 1.0], 1.0), 3.0);
+        assert!(quantile(&[], 0.5).is_nan());
     }
 
     #[test]

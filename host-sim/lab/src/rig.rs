@@ -10,6 +10,8 @@ use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::heartbeat::HeartbeatConfig;
 use trn_protocol::{BusMode, CanFrame, Encoder, Envelope, Joint, Message, NodeId, Reassembler};
 
+use std::cell::{Ref, RefCell, RefMut};
+use std::rc::Rc;
 use trn_plant::nodes::{CameraProcessor, Capture, Gripper, Outbox, Served, ServoDrive};
 use trn_plant::Plant;
 use trn_transport::clock::{millis, Clock};
@@ -44,17 +46,22 @@ pub struct RigStats {
     pub heartbeats: u64,
 }
 
+/// The plant of a rig, shared with a controller that may look at its true state (the
+/// oracle, in process only): the rig never holds a borrow across a wait on the bus, when
+/// such a controller runs.
+pub type SharedPlant = Rc<RefCell<Plant>>;
+
 /// The plant and its nodes on one port.
 pub struct Rig<P> {
     port: P,
-    plant: Plant,
+    plant: SharedPlant,
     drives: [ServoDrive; 5],
     camera: CameraProcessor,
     gripper: Gripper,
     enc: Encoder,
     rx: Reassembler,
     /// The run's clock (simulated in process, the wall clock on a real bus).
-    clock: std::rc::Rc<dyn Clock>,
+    clock: Rc<dyn Clock>,
     /// When the controller was last heard (any frame).
     heard: Duration,
     stats: RigStats,
@@ -70,8 +77,19 @@ where
     /// supervise the controller's heartbeat with `supervision`.
     pub fn new(
         port: P,
-        clock: std::rc::Rc<dyn Clock>,
+        clock: Rc<dyn Clock>,
         plant: Plant,
+        mode: BusMode,
+        supervision: HeartbeatConfig,
+    ) -> Self {
+        Self::on_shared(port, clock, Rc::new(RefCell::new(plant)), mode, supervision)
+    }
+
+    /// [`Rig::new`] around a plant shared with a controller that reads its true state.
+    pub fn on_shared(
+        port: P,
+        clock: Rc<dyn Clock>,
+        plant: SharedPlant,
         mode: BusMode,
         supervision: HeartbeatConfig,
     ) -> Self {
@@ -92,13 +110,13 @@ where
     }
 
     /// The plant.
-    pub fn plant(&self) -> &Plant {
-        &self.plant
+    pub fn plant(&self) -> Ref<'_, Plant> {
+        self.plant.borrow()
     }
 
     /// The plant, to set up a trial (targets, start poses) outside the bus.
-    pub fn plant_mut(&mut self) -> &mut Plant {
-        &mut self.plant
+    pub fn plant_mut(&mut self) -> RefMut<'_, Plant> {
+        self.plant.borrow_mut()
     }
 
     /// The gripper node.
@@ -183,7 +201,7 @@ where
         let now = self.now_ms();
         let mut out = Outbox::new();
         for d in &mut self.drives {
-            d.poll(&mut self.plant, now, &mut out)?;
+            d.poll(&mut self.plant.borrow_mut(), now, &mut out)?;
         }
         self.send_all(&out)
     }
@@ -245,9 +263,11 @@ where
         let mut out = Outbox::new();
         let mut answered = false;
         for d in &mut self.drives {
-            answered |= d.on_message(&mut self.plant, env, now, &mut out)?;
+            answered |= d.on_message(&mut self.plant.borrow_mut(), env, now, &mut out)?;
         }
-        let served = self.camera.on_message(&mut self.plant, env, &mut out);
+        let served = self
+            .camera
+            .on_message(&mut self.plant.borrow_mut(), env, &mut out);
         let gripper = self.gripper.on_message(env, &mut out);
         self.send_all(&out)?;
         Ok(match (served, gripper, env.node) {

@@ -16,10 +16,12 @@ use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, Tra
 use crate::checkpoint_file;
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
+use crate::oracle::Oracle;
 use crate::output::OutputPlan;
 use crate::ports::ControllerPort;
 use crate::reference::NominalIk;
 use crate::report::Report;
+use crate::rig::SharedPlant;
 use crate::session::{Setup, Start};
 use crate::sim_state;
 use crate::spec::RunSpec;
@@ -94,6 +96,13 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
             // the model-based reference: the simulator's own model, in process only
             let reference = Box::new(NominalIk::new(&spec.plant, cfg)?);
             inline(&mut setup, reference, plant, &mut report)?;
+            None
+        }
+        ControllerSite::Inline if cfg.law == Law::Oracle => {
+            // the physical limit: it reads the plant the rig moves
+            let shared: SharedPlant = std::rc::Rc::new(std::cell::RefCell::new(plant));
+            let oracle = Box::new(Oracle::new(shared.clone(), cfg));
+            inline_shared(&mut setup, oracle, shared, &mut report)?;
             None
         }
         ControllerSite::Inline => {
@@ -196,6 +205,20 @@ fn inline<C: Control + ?Sized>(
     setup: &mut Setup,
     ctrl: Box<C>,
     plant: Plant,
+    report: &mut Report,
+) -> Result<Box<C>>
+where
+    SimulatedBus<C>: ControllerPort,
+{
+    let shared = std::rc::Rc::new(std::cell::RefCell::new(plant));
+    inline_shared(setup, ctrl, shared, report)
+}
+
+/// [`inline`] on a plant the controller may read too.
+fn inline_shared<C: Control + ?Sized>(
+    setup: &mut Setup,
+    ctrl: Box<C>,
+    plant: SharedPlant,
     report: &mut Report,
 ) -> Result<Box<C>>
 where

@@ -219,8 +219,8 @@ where
         match &spec.source {
             Source::VisitAndReturn => {
                 let grasp = kind.is_grasp();
-                let plant = self.rig.plant_mut();
-                let target = targets::visit_and_return(plant, &mut self.rng, grasp)?;
+                let mut plant = self.rig.plant_mut();
+                let target = targets::visit_and_return(&mut plant, &mut self.rng, grasp)?;
                 // "the robot arm went to a particular arbitrarily chosen position from where
                 // it tried to reach the target" (Sec. 8.4.1); stage 2 keeps the wrist of the
                 // target.
@@ -230,7 +230,8 @@ where
                 Ok(Some(target))
             }
             Source::HeldOut(h) => {
-                let Ok(target) = h.realise(self.rig.plant(), kind.is_grasp()) else {
+                let realised = h.realise(&self.rig.plant(), kind.is_grasp());
+                let Ok(target) = realised else {
                     return Ok(None);
                 };
                 // the arm starts from a pose of its own; a stage-2 trial needs the target's
@@ -240,7 +241,7 @@ where
                 if stage2 {
                     start[3..].copy_from_slice(&h.pressures[3..]);
                 }
-                let plant = self.rig.plant_mut();
+                let mut plant = self.rig.plant_mut();
                 plant.set_cylinder(target.cylinder);
                 plant.command(&start);
                 plant.settle();

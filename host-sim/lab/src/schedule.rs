@@ -179,10 +179,12 @@ where
 {
     cx.observer.start(plan.total() as u64);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(cx.seed ^ 0x4E1D_0075_EED5);
-    let plant = runner.rig().plant();
-    let sets = HeldOutSets {
-        targets: HeldOut::set(plant, &mut rng, plan.eval_targets, false)?,
-        grasps: HeldOut::set(plant, &mut rng, plan.grasps, true)?,
+    let sets = {
+        let plant = runner.rig().plant();
+        HeldOutSets {
+            targets: HeldOut::set(&plant, &mut rng, plan.eval_targets, false)?,
+            grasps: HeldOut::set(&plant, &mut rng, plan.grasps, true)?,
+        }
     };
     if let Some(s) = cx.resume {
         *runner.rig_mut().plant_mut() = s.plant.clone();

@@ -21,7 +21,7 @@ use crate::observe::Observer;
 use crate::output::OutputPlan;
 use crate::ports::ControllerPort;
 use crate::report::Report;
-use crate::rig::Rig;
+use crate::rig::{Rig, SharedPlant};
 use crate::runner::{Runner, Timing};
 use crate::schedule::{self, Checkpoints, Context, Plan};
 use crate::sim_state::SimState;
@@ -76,6 +76,7 @@ impl<'a> Setup<'a> {
     where
         P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout + ControllerPort,
     {
+        let plant = Rc::new(std::cell::RefCell::new(plant));
         self.drive(port, Rc::new(WallClock::start()), plant, report)
     }
 
@@ -85,7 +86,7 @@ impl<'a> Setup<'a> {
         &mut self,
         port: P,
         clock: Rc<dyn Clock>,
-        plant: Plant,
+        plant: SharedPlant,
         report: &mut Report,
     ) -> Result<P>
     where
@@ -116,7 +117,7 @@ impl<'a> Setup<'a> {
         &mut self,
         port: P,
         clock: Rc<dyn Clock>,
-        plant: Plant,
+        plant: SharedPlant,
         report: &mut Report,
     ) -> Result<P>
     where
@@ -133,7 +134,7 @@ impl<'a> Setup<'a> {
         } else {
             BusMode::Classic
         };
-        let rig = Rig::new(port, clock, plant, mode, supervision);
+        let rig = Rig::on_shared(port, clock, plant, mode, supervision);
         let silence = std::time::Duration::from_secs_f64(spec.bus.timeout_s);
         let timing = Timing {
             alive: profile.heartbeat_timeout,

@@ -254,8 +254,8 @@ impl RunSpec {
         if self.bus.faults.is_some() && !profile.faults {
             return usage("--faults injects faults on the in-process bus only");
         }
-        if self.profile.law == Law::Model && (!profile.host_laws || checkpoints) {
-            return usage("the model-based reference (--controller model) carries the simulator's model: in process only, no checkpoints");
+        if self.profile.law.host_only() && (!profile.host_laws || checkpoints) {
+            return usage("the model-based reference and the oracle (--controller model, oracle) carry the simulator: in process only, no checkpoints");
         }
         if plan.resume && self.checkpoint_in.is_none() {
             return usage("--continue needs --checkpoint-in");

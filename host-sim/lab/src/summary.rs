@@ -82,9 +82,9 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
             "error after move (px)",
             (0..=d.fine_moves)
                 .map(|m| if m == 0 {
-                    format!("{:>6}", "coarse")
+                    format!(" {:>6}", "coarse")
                 } else {
-                    format!("{m:>6}")
+                    format!(" {m:>6}")
                 })
                 .collect::<Vec<_>>()
                 .join("")
@@ -94,7 +94,7 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
                 "{:<38} {}",
                 name,
                 v.iter()
-                    .map(|x| format!("{:>6}", px(*x)))
+                    .map(|x| format!(" {:>6}", px(*x)))
                     .collect::<Vec<_>>()
                     .join("")
             );
@@ -102,7 +102,11 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
         row("stage 1, noise-free", &d.stage1_true_px);
         row("stage 2, noise-free", &d.stage2_true_px);
         row("combined, noise-free", &d.combined_true_px);
+        row("  median over the targets", &d.combined_true_p50_px);
+        row("  95th percentile", &d.combined_true_p95_px);
+        row("  worst target", &d.combined_true_max_px);
         row("combined, measured", &d.combined_measured_px);
+        row("  95th percentile", &d.combined_measured_p95_px);
         println!(
             "{:<38} {}",
             "camera-noise floor of the measured (px)",

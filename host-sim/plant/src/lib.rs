@@ -143,17 +143,32 @@ impl Plant {
         }
     }
 
-    /// One joint's command; a new one (another pressure) draws the move's process noise.
+    /// One joint's command; a new one (another pressure) draws the move's process noise
+    /// (none without process noise: a copy of the plant with it switched off, [`Plant::expected`],
+    /// moves as the plant does on average).
     fn command_one(&mut self, i: usize, raw: u16) -> Option<(u16, bool)> {
         let sigma = self.cfg.realism.process_noise_deg.to_radians();
         let j = self.joints.get_mut(i)?;
         let new = joint::raw_of(j.commanded()) != raw;
         let out = j.command_raw(raw);
-        if new && sigma > 0.0 {
-            let rng = self.move_noise.get_mut(i)?;
-            j.effects.process_offset = sigma * random::gaussian(rng);
+        if new {
+            j.effects.process_offset = if sigma > 0.0 {
+                let rng = self.move_noise.get_mut(i)?;
+                sigma * random::gaussian(rng)
+            } else {
+                0.0
+            };
         }
         Some(out)
+    }
+
+    /// An exact copy of the plant now (every joint's hysteresis history, creep, drift, wear,
+    /// the cylinder) whose future moves carry no process noise: what it does next is what
+    /// this plant does on average. The oracle solves on it.
+    pub fn expected(&self) -> Plant {
+        let mut copy = self.clone();
+        copy.cfg.realism.process_noise_deg = 0.0;
+        copy
     }
 
     /// Puts every joint at rest at its equilibrium for pressures `p` at once (no dynamics,

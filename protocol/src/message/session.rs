@@ -83,7 +83,7 @@ pub const PRESET_CODES: u8 = 3;
 /// Number of ablations on the wire (`SessionConfig::ablation` is below it).
 pub const ABLATION_CODES: u8 = 5;
 /// Number of control laws on the wire (`SessionConfig::law` is below it).
-pub const LAW_CODES: u8 = 3;
+pub const LAW_CODES: u8 = 4;
 /// Largest image side a session may announce, in pixels.
 pub const IMAGE_SIDE_MAX: u16 = 8192;
 

@@ -165,8 +165,8 @@ where
     /// A target of the paper's kind (the arm visits random pressures), then the arm goes to
     /// a random start pose (all joints, or the first three for stage 2).
     fn target(&mut self, grasp: bool, joints: usize) -> Result<Target> {
-        let plant = self.runner.rig_mut().plant_mut();
-        let t = targets::visit_and_return(plant, &mut self.rng, grasp)?;
+        let mut plant = self.runner.rig_mut().plant_mut();
+        let t = targets::visit_and_return(&mut plant, &mut self.rng, grasp)?;
         plant.move_to_random_joints(&mut self.rng, joints);
         plant.settle();
         Ok(t)
@@ -469,9 +469,11 @@ where
         let start = self.runner.rig().plant().random_pressures(&mut self.rng);
         let mut runs = Vec::new();
         for _ in 0..2 {
-            let plant = self.runner.rig_mut().plant_mut();
-            plant.command(&start);
-            plant.settle();
+            {
+                let mut plant = self.runner.rig_mut().plant_mut();
+                plant.command(&start);
+                plant.settle();
+            }
             let trial = self.next_trial();
             let mut msg = stage1(trial, &t, 0, false);
             msg.learn = true;
