@@ -27,7 +27,9 @@ use crate::net::{Stage1Net, Stage2Net};
 use serde::{Deserialize, Serialize};
 
 mod stream;
-pub use stream::{read_at, restore_from, verify_from, ImageCursor, ImageSource, SourceError};
+pub use stream::{
+    check_from, read_at, restore_from, verify_from, ImageCursor, ImageSource, SourceError,
+};
 
 /// The format version this build writes and reads (2: provenance in the header).
 pub const VERSION: u16 = 2;

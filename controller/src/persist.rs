@@ -24,10 +24,27 @@ pub struct Tables<'a> {
 pub struct StoredCopy {
     /// The copy's sequence number: each save numbers its copy one above the newest.
     pub sequence: u32,
-    /// The image's header (learning steps, provenance, configuration fingerprint).
-    pub header: Header,
+    /// Stage-1 and stage-2 learning steps of the tables.
+    pub steps: (u32, u32),
+    /// The configuration fingerprint they were learned under.
+    pub fingerprint: u32,
+    /// The preset and ablation they were learned with.
+    pub provenance: Provenance,
     /// The image's length in bytes.
     pub len: u32,
+}
+
+impl StoredCopy {
+    /// The copy described by an image's header.
+    pub fn of(sequence: u32, header: &Header, len: u32) -> StoredCopy {
+        StoredCopy {
+            sequence,
+            steps: (header.t1, header.t2),
+            fingerprint: header.config_fingerprint,
+            provenance: header.provenance,
+            len,
+        }
+    }
 }
 
 /// What a staged image must be before it is applied: the writer announces both before the

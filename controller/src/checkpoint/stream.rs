@@ -203,6 +203,10 @@ pub trait ImageSource {
     type Error;
     /// The image's length in bytes.
     fn len(&self) -> usize;
+    /// True for a source of no bytes (refused as too short).
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
     /// Fills `buf` with the bytes at `offset..offset + buf.len()` (always within `len`).
     fn read(&mut self, offset: usize, buf: &mut [u8]) -> core::result::Result<(), Self::Error>;
 }
@@ -372,6 +376,18 @@ pub fn verify_from<S: ImageSource>(src: &mut S) -> SourceResult<Header, S::Error
     Ok(header)
 }
 
+/// Checks an image read from `src` as [`restore_from`] does before it writes anything
+/// (everything [`super::restore`] checks: framing, CRC, learning steps, every value), without
+/// restoring it; returns its header. A store checks a staged image with it before it makes
+/// it the stored copy.
+pub fn check_from<S: ImageSource>(src: &mut S) -> SourceResult<Header, S::Error> {
+    let (header, head_len) = check_frame(src)?;
+    if !first_pass(src, &header, head_len)? {
+        return Err(Error::CheckpointContents.into());
+    }
+    Ok(header)
+}
+
 /// Restores both networks from an image read from `src` in two passes: the first checks
 /// everything [`super::restore`] checks (and refuses what it refuses, with the same error)
 /// without writing anything; the second reads the image again and writes the tables. A
@@ -385,10 +401,8 @@ pub fn restore_from<S: ImageSource>(
     if ctrl.busy() {
         return Err(Error::Busy.into());
     }
-    let (header, head_len) = check_frame(src)?;
-    if !first_pass(src, &header, head_len)? {
-        return Err(Error::CheckpointContents.into());
-    }
+    let header = check_from(src)?;
+    let head_len = src.len() - 4 - VALUES * 4;
     let limits = ValueLimits::new();
     let mut values = Values::new(src, head_len).map_err(SourceError::Read)?;
     let mut i = 0;
