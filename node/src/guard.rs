@@ -140,14 +140,20 @@ mod tests {
         assert_eq!(g.check(GuardOp::Reseed, n, 2001, 2000), Err(Refusal::Stale));
         // another operation's nonce
         let n = g.issue(GuardOp::StoreErase, 5000).unwrap();
-        assert_eq!(g.check(GuardOp::TableWrite, n, 5001, 2000), Err(Refusal::Wrong));
+        assert_eq!(
+            g.check(GuardOp::TableWrite, n, 5001, 2000),
+            Err(Refusal::Wrong)
+        );
         // a wrong try spends the nonce issued: the right one after it is refused as used
         let n = g.issue(GuardOp::TableWrite, 6000).unwrap();
         assert_eq!(
             g.check(GuardOp::TableWrite, n ^ 1, 6001, 2000),
             Err(Refusal::Wrong)
         );
-        assert_eq!(g.check(GuardOp::TableWrite, n, 6002, 2000), Err(Refusal::Used));
+        assert_eq!(
+            g.check(GuardOp::TableWrite, n, 6002, 2000),
+            Err(Refusal::Used)
+        );
         // the clock wraps
         let n = g.issue(GuardOp::Reseed, u32::MAX - 10).unwrap();
         assert_eq!(g.check(GuardOp::Reseed, n, 100, 2000), Ok(()));
@@ -165,8 +171,12 @@ mod tests {
         let mut a = seeded();
         let mut b = Guard::new();
         b.seed([8; 16]);
-        let xs: Vec<u32> = (0..8).map(|_| a.issue(GuardOp::Reseed, 0).unwrap()).collect();
-        let ys: Vec<u32> = (0..8).map(|_| b.issue(GuardOp::Reseed, 0).unwrap()).collect();
+        let xs: Vec<u32> = (0..8)
+            .map(|_| a.issue(GuardOp::Reseed, 0).unwrap())
+            .collect();
+        let ys: Vec<u32> = (0..8)
+            .map(|_| b.issue(GuardOp::Reseed, 0).unwrap())
+            .collect();
         assert_ne!(xs, ys);
         assert!(xs.windows(2).all(|w| w[1] != w[0].wrapping_add(1)));
     }

@@ -4,15 +4,15 @@
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
 
+use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task};
 use trn_controller::{Config, Law};
 use trn_protocol as proto;
-use trn_controller::checkpoint::Provenance;
 use trn_protocol::{
-    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, GuardNonce, GuardOp,
-    Heartbeat, Message, Mode, ModeChange, NodeId, NodeState, PointStatus, Reassembler,
-    SessionConfig, TrialReport,
+    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, GuardNonce, GuardOp, Heartbeat,
+    Message, Mode, ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig,
+    TrialReport,
 };
 
 use crate::codes;
@@ -347,25 +347,29 @@ impl ControllerNode {
             (NodeId::Controller, Message::ConfirmedSessionConfig(c)) => {
                 self.on_session_config(ctrl, &c.config, c.nonce, now_ms, out)
             }
-            (NodeId::Controller, Message::GuardRequest(r)) => match self.guard.issue(r.op, now_ms) {
-                Ok(nonce) => {
-                    let window_ms = self.cfg.nonce_window_ms;
-                    let n = GuardNonce {
-                        op: r.op,
-                        nonce,
-                        window_ms,
-                    };
-                    push(out, NodeId::Controller, n.into());
+            (NodeId::Controller, Message::GuardRequest(r)) => {
+                match self.guard.issue(r.op, now_ms) {
+                    Ok(nonce) => {
+                        let window_ms = self.cfg.nonce_window_ms;
+                        let n = GuardNonce {
+                            op: r.op,
+                            nonce,
+                            window_ms,
+                        };
+                        push(out, NodeId::Controller, n.into());
+                    }
+                    Err(refusal) => {
+                        let detail = op_code(r.op) << 8 | refusal as u32;
+                        error(out, codes::GUARD_REFUSED, detail)
+                    }
                 }
-                Err(refusal) => {
-                    let detail = op_code(r.op) << 8 | refusal as u32;
-                    error(out, codes::GUARD_REFUSED, detail)
-                }
-            },
+            }
             (NodeId::Controller, Message::StoreCommand(c)) => {
                 self.on_store_command(ctrl, c, now_ms, out)
             }
-            (NodeId::Controller, Message::TableReadRequest(r)) => self.on_read_request(ctrl, r, out),
+            (NodeId::Controller, Message::TableReadRequest(r)) => {
+                self.on_read_request(ctrl, r, out)
+            }
             (NodeId::Controller, Message::TableWriteBegin(b)) => {
                 self.on_write_begin(ctrl, b, now_ms, out)
             }

@@ -9,8 +9,8 @@ use trn_controller::persist::{ApplyError, Expected, SaveError, StageError, Store
 use trn_controller::Control;
 use trn_protocol::{
     chunk_count, ChunkData, GuardOp, Mode, NodeId, StoreCommand, StoreOp, TableReadChunk,
-    TableReadRequest, TableWriteAck, TableWriteBegin, TableWriteChunk, TableWriteEnd,
-    TablesEvent, TablesStatus, CHUNK,
+    TableReadRequest, TableWriteAck, TableWriteBegin, TableWriteChunk, TableWriteEnd, TablesEvent,
+    TablesStatus, CHUNK,
 };
 
 use crate::codes::{self, table_op, table_reason};
@@ -75,7 +75,10 @@ impl TableState {
 /// Learning steps of both stages, `None` for a controller without TRN tables.
 pub(crate) fn steps<C: Control + ?Sized>(ctrl: &mut C) -> Option<(u32, u32)> {
     let t = ctrl.tables()?;
-    Some((t.ctrl.stage1().learning_step(), t.ctrl.stage2().learning_step()))
+    Some((
+        t.ctrl.stage1().learning_step(),
+        t.ctrl.stage2().learning_step(),
+    ))
 }
 
 /// True when the controller holds TRN tables that learned: what the guard protects.
@@ -160,7 +163,10 @@ impl ControllerNode {
         let (image_len, steps, stored) = match ctrl.tables() {
             Some(t) => {
                 let len = ImageCursor::new(t.ctrl, provenance).len() as u32;
-                let steps = (t.ctrl.stage1().learning_step(), t.ctrl.stage2().learning_step());
+                let steps = (
+                    t.ctrl.stage1().learning_step(),
+                    t.ctrl.stage2().learning_step(),
+                );
                 let stored = t.store.and_then(|s| s.stored()).map_or(0, |c| c.sequence);
                 (len, steps, stored)
             }

@@ -58,14 +58,30 @@ fn a_reseed_of_learned_tables_needs_a_fresh_nonce() {
     };
     refused(&send(&mut n, &mut b, wrong.into(), 10), Refusal::Wrong);
     // issued, presented too late (2 s of the node's clock)
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::Reseed }.into(), 100);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::Reseed,
+        }
+        .into(),
+        100,
+    );
     let stale = ConfirmedSessionConfig {
         config: other,
         nonce: nonce(&out, GuardOp::Reseed),
     };
     refused(&send(&mut n, &mut b, stale.into(), 2101), Refusal::Stale);
     // issued for another operation
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::StoreErase }.into(), 3000);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::StoreErase,
+        }
+        .into(),
+        3000,
+    );
     let other_op = ConfirmedSessionConfig {
         config: other,
         nonce: nonce(&out, GuardOp::StoreErase),
@@ -73,17 +89,26 @@ fn a_reseed_of_learned_tables_needs_a_fresh_nonce() {
     refused(&send(&mut n, &mut b, other_op.into(), 3001), Refusal::Wrong);
     assert_eq!(image(&b.ctrl), before, "a refusal changed the tables");
     // fresh: accepted, echoed as the plain configuration, new tables seeded
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::Reseed }.into(), 4000);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::Reseed,
+        }
+        .into(),
+        4000,
+    );
     let fresh = ConfirmedSessionConfig {
         config: other,
         nonce: nonce(&out, GuardOp::Reseed),
     };
     let out = send(&mut n, &mut b, fresh.into(), 5999);
     assert!(errors(&out).is_empty(), "{out:?}");
-    assert!(out
-        .iter()
-        .any(|e| e.msg == Message::SessionConfig(other)));
-    assert!(same(&b.ctrl, &learned(77, 0)), "the tables are those seeded with 77");
+    assert!(out.iter().any(|e| e.msg == Message::SessionConfig(other)));
+    assert!(
+        same(&b.ctrl, &learned(77, 0)),
+        "the tables are those seeded with 77"
+    );
     // the same confirmed message again (a repeat: its echo was lost): the configuration in
     // force, echoed without re-seeding
     let again = send(&mut n, &mut b, fresh.into(), 6000);
@@ -98,14 +123,30 @@ fn learned_now(b: &mut Board) -> bool {
 #[test]
 fn a_replayed_confirmation_is_refused_as_used() {
     let (mut n, mut b) = booted_board(2, 2);
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::Reseed }.into(), 0);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::Reseed,
+        }
+        .into(),
+        0,
+    );
     let c = ConfirmedSessionConfig {
         config: session(5, false),
         nonce: nonce(&out, GuardOp::Reseed),
     };
     assert!(echoed(&send(&mut n, &mut b, c.into(), 1)));
     // the new tables learn in a session, which ends
-    let mut out = send(&mut n, &mut b, ModeChange { mode: Mode::Training }.into(), 2);
+    let mut out = send(
+        &mut n,
+        &mut b,
+        ModeChange {
+            mode: Mode::Training,
+        }
+        .into(),
+        2,
+    );
     let mut plant = Plant::new();
     out.extend(send(&mut n, &mut b, target(1), 3));
     for _ in 0..20 {
@@ -140,7 +181,15 @@ fn after_a_refused_session_trials_are_refused_until_one_is_accepted() {
     );
     // a replayed session: refused, then its mode change and its targets start nothing
     send(&mut n, &mut b, session(9, false).into(), 1);
-    send(&mut n, &mut b, ModeChange { mode: Mode::Training }.into(), 2);
+    send(
+        &mut n,
+        &mut b,
+        ModeChange {
+            mode: Mode::Training,
+        }
+        .into(),
+        2,
+    );
     let out = send(&mut n, &mut b, target(2), 3);
     assert_eq!(errors(&out), vec![(codes::SESSION_REQUIRED, 2)]);
     assert!(!out
@@ -153,7 +202,15 @@ fn after_a_refused_session_trials_are_refused_until_one_is_accepted() {
     let keep = send(&mut n, &mut b, session(9, true).into(), 5);
     assert!(echoed(&keep), "{keep:?}");
     assert!(!n.session_required());
-    send(&mut n, &mut b, ModeChange { mode: Mode::Training }.into(), 6);
+    send(
+        &mut n,
+        &mut b,
+        ModeChange {
+            mode: Mode::Training,
+        }
+        .into(),
+        6,
+    );
     let out = send(&mut n, &mut b, target(3), 7);
     assert!(out
         .iter()
@@ -200,7 +257,15 @@ fn a_board_may_allow_unguarded_resets() {
 fn an_unseeded_node_issues_no_nonce() {
     let mut b = learned(6, 2);
     let mut n = trn_node::ControllerNode::new(NodeConfig::DEFAULT);
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::Reseed }.into(), 0);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::Reseed,
+        }
+        .into(),
+        0,
+    );
     assert_eq!(
         errors(&out),
         vec![(codes::GUARD_REFUSED, RESEED | Refusal::Unavailable as u32)]
@@ -235,7 +300,15 @@ fn erasing_and_writing_in_are_guarded() {
         errors(&out),
         vec![(codes::GUARD_REFUSED, 2 << 8 | Refusal::Wrong as u32)]
     );
-    let out = send(&mut n, &mut b, GuardRequest { op: GuardOp::StoreErase }.into(), 2);
+    let out = send(
+        &mut n,
+        &mut b,
+        GuardRequest {
+            op: GuardOp::StoreErase,
+        }
+        .into(),
+        2,
+    );
     let out = send(&mut n, &mut b, erase(nonce(&out, GuardOp::StoreErase)), 3);
     assert!(out.iter().any(|e| matches!(
         e.msg,

@@ -42,10 +42,14 @@ fn record_session() -> Recorded {
     let mut node_port = bus.port();
     let mut ctrl = learned(21, 0);
     let mut node = ControllerNode::new(NodeConfig::DEFAULT);
-    let (mut nrx, mut nenc): (Reassembler, _) =
-        (Reassembler::new(DEFAULT_STALE_MS), Encoder::new(BusMode::Classic));
-    let (mut rx, mut enc): (Reassembler, _) =
-        (Reassembler::new(DEFAULT_STALE_MS), Encoder::new(BusMode::Classic));
+    let (mut nrx, mut nenc): (Reassembler, _) = (
+        Reassembler::new(DEFAULT_STALE_MS),
+        Encoder::new(BusMode::Classic),
+    );
+    let (mut rx, mut enc): (Reassembler, _) = (
+        Reassembler::new(DEFAULT_STALE_MS),
+        Encoder::new(BusMode::Classic),
+    );
     let mut plant = Plant::new();
     let mut now_ms = 0u32;
     // one millisecond of the session: the node serves its port, the rig answers for the plant
@@ -77,7 +81,10 @@ fn record_session() -> Recorded {
                    ctrl: &mut Box<Controller>| {
         let mut heard = Vec::new();
         for m in msgs {
-            for f in &enc_runner().encode(&Envelope::new(NodeId::Controller, *m)).unwrap() {
+            for f in &enc_runner()
+                .encode(&Envelope::new(NodeId::Controller, *m))
+                .unwrap()
+            {
                 rig.transmit(f).unwrap();
             }
         }
@@ -117,7 +124,13 @@ fn record_session() -> Recorded {
                 })
                 .collect(),
             Mode::Training => (4..=7)
-                .map(|t| vec![if t % 2 == 0 { stage1(t, false) } else { stage2(t, false) }])
+                .map(|t| {
+                    vec![if t % 2 == 0 {
+                        stage1(t, false)
+                    } else {
+                        stage2(t, false)
+                    }]
+                })
                 .collect(),
             Mode::Mature => vec![vec![
                 GraspRequest { trial: 8 }.into(),
@@ -202,7 +215,11 @@ fn recorded() -> &'static Recorded {
         let r = record_session();
         // a real session: configured, trained, a grasp
         let lines = String::from_utf8(r.log.clone()).unwrap();
-        assert!(lines.lines().count() > 300, "{} frames", lines.lines().count());
+        assert!(
+            lines.lines().count() > 300,
+            "{} frames",
+            lines.lines().count()
+        );
         assert!(r.ctrl.stage1().learning_step() >= 5 && r.ctrl.stage2().learning_step() >= 2);
         r
     })
@@ -216,7 +233,10 @@ fn a_replayed_session_leaves_a_booted_boards_learned_tables_bit_identical() {
     let errors = replay(log, &mut node, &mut board);
     assert!(same(&board.ctrl, &before), "the replay changed the tables");
     // the refusals were on the bus: the configuration (no nonce), then every target
-    assert!(errors.contains(&(codes::GUARD_REFUSED, 1 << 8 | 1)), "{errors:?}");
+    assert!(
+        errors.contains(&(codes::GUARD_REFUSED, 1 << 8 | 1)),
+        "{errors:?}"
+    );
     assert!(errors.iter().any(|e| e.0 == codes::SESSION_REQUIRED));
 }
 
@@ -240,8 +260,14 @@ fn the_same_replay_changes_tables_the_guard_does_not_cover() {
     let before = fresh.clone();
     let mut node = ControllerNode::new(NodeConfig::DEFAULT);
     replay(&r.log, &mut node, &mut fresh);
-    assert!(!same(&fresh, &before), "a fresh node takes the replayed session");
-    assert!(fresh.stage1().learning_step() > 0, "and learns from its answers");
+    assert!(
+        !same(&fresh, &before),
+        "a fresh node takes the replayed session"
+    );
+    assert!(
+        fresh.stage1().learning_step() > 0,
+        "and learns from its answers"
+    );
     let mut board = learned(5, 4);
     let before = board.clone();
     let mut node = ControllerNode::new(NodeConfig {

@@ -198,12 +198,24 @@ fn round_trip(mode: BusMode) {
     // a writer that stops a third of the way, then a new one that resumes
     let fp = source.config().fingerprint();
     rig.write(&image_in, fp, Some(1500)).unwrap();
-    assert!(!same(&rig.board.ctrl, &source), "nothing applied before the end");
+    assert!(
+        !same(&rig.board.ctrl, &source),
+        "nothing applied before the end"
+    );
     rig.write(&image_in, fp, None).unwrap();
-    assert!(same(&rig.board.ctrl, &source), "the node holds the tables written in");
-    assert_eq!(rig.board.store.stored().unwrap().steps.0, source.stage1().learning_step());
+    assert!(
+        same(&rig.board.ctrl, &source),
+        "the node holds the tables written in"
+    );
+    assert_eq!(
+        rig.board.store.stored().unwrap().steps.0,
+        source.stage1().learning_step()
+    );
     let image_out = rig.read();
-    assert!(image_out == image_in, "the tables read out differ from those written in");
+    assert!(
+        image_out == image_in,
+        "the tables read out differ from those written in"
+    );
     let s = rig.bus.stats();
     println!(
         "{mode:?}: {} chunks each way, {} requests repeated; bus: {} sent, {} dropped, {} duplicated, {} corrupted, {} truncated, {} delayed",
@@ -255,7 +267,12 @@ fn a_write_that_does_not_verify_is_not_applied() {
         store: store(),
     };
     let mut n = node();
-    let read = send(&mut n, &mut plain.ctrl, TableReadRequest { index: 0 }.into(), 0);
+    let read = send(
+        &mut n,
+        &mut plain.ctrl,
+        TableReadRequest { index: 0 }.into(),
+        0,
+    );
     assert!(matches!(read[0].msg, Message::TableReadChunk(c) if c.data.bytes()[..4] == *b"TRNC"));
     let begin = send(
         &mut n,

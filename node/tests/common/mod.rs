@@ -7,8 +7,8 @@ use trn_controller::persist::WithStore;
 use trn_controller::{Command, Config, Controller, Observation, Task};
 use trn_node::{ControllerNode, NodeConfig, Outbox};
 use trn_protocol::{
-    CaptureKind, Envelope, Message, NodeId, Observation as Obs, PixelPoint, SafeState,
-    ServoStatus, SessionConfig,
+    CaptureKind, Envelope, Message, NodeId, Observation as Obs, PixelPoint, SafeState, ServoStatus,
+    SessionConfig,
 };
 use trn_store::sim::SimFlash;
 use trn_store::FlashStore;
