@@ -100,8 +100,9 @@ pub mod table_reason {
     pub const CRC_MISMATCH: u32 = 7;
     /// The image's configuration fingerprint is not the one announced.
     pub const FINGERPRINT_MISMATCH: u32 = 8;
-    /// The image is not a checkpoint this build restores (bits 16..24: the controller
-    /// error's code, [`super::controller_error_code`] >> 8).
+    /// The image is not a checkpoint this build restores (bits 16..24: which refusal, the
+    /// low byte of its [`super::controller_error_code`] `0xB00..=0xB06`: 0 length, 1 magic,
+    /// 2 version, 3 shape, 4 CRC, 5 contents, 6 changed; 0xFF another error).
     pub const IMAGE: u32 = 9;
     /// The flash refused an operation (bits 16..24: its code).
     pub const FLASH: u32 = 10;

@@ -119,7 +119,12 @@ fn stage_reason(e: StageError) -> (u32, u32) {
 fn apply_reason(e: ApplyError) -> (u32, u32) {
     match e {
         ApplyError::Incomplete => (table_reason::INCOMPLETE, 0),
-        ApplyError::Image(e) => (table_reason::IMAGE, codes::controller_error_code(&e) >> 8),
+        ApplyError::Image(e) => {
+            // the checkpoint refusal's number: the low byte of its CONTROLLER_ERROR code
+            let code = codes::controller_error_code(&e);
+            let which = if code >> 8 == 0xB { code & 0xFF } else { 0xFF };
+            (table_reason::IMAGE, which)
+        }
         ApplyError::CrcMismatch => (table_reason::CRC_MISMATCH, 0),
         ApplyError::FingerprintMismatch => (table_reason::FINGERPRINT_MISMATCH, 0),
         ApplyError::Busy => (table_reason::BUSY, 0),
