@@ -212,8 +212,8 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::TableWriteBegin, 16),
         (MessageKind::TableWriteEnd, 4),
         (MessageKind::TableReadRequest, 2),
-        (MessageKind::TableReadChunk, 58),
-        (MessageKind::TableWriteChunk, 58),
+        (MessageKind::TableReadChunk, 50),
+        (MessageKind::TableWriteChunk, 50),
         (MessageKind::TableWriteAck, 6),
     ];
     assert_eq!(expected.len(), MessageKind::ALL.len());
@@ -311,11 +311,11 @@ fn a_table_chunk_is_its_index_then_its_bytes() {
     let p = frames[0].payload();
     assert_eq!(frames[0].raw_id(), 0x791);
     assert_eq!(&p[..2], &[0x02, 0x01]);
-    assert_eq!(&p[2..58], &bytes[..]);
+    assert_eq!(&p[2..50], &bytes[..]);
     assert_eq!(m.data.bytes().to_vec(), bytes);
     let short = ChunkData::new(&[7, 8, 9]).bytes();
     assert_eq!(short[..3], [7, 8, 9]);
     assert!(short[3..].iter().all(|&b| b == 0));
-    assert_eq!(chunk_count(56), 1);
-    assert_eq!(chunk_count(57), 2);
+    assert_eq!(chunk_count(48), 1);
+    assert_eq!(chunk_count(49), 2);
 }

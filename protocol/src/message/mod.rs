@@ -178,8 +178,8 @@ messages! {
     TableWriteEnd = 4;
     Heartbeat = 2;
     TableReadRequest = 2;
-    TableReadChunk = 58;
-    TableWriteChunk = 58;
+    TableReadChunk = 50;
+    TableWriteChunk = 50;
     TableWriteAck = 6;
 }
 

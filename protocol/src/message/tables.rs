@@ -4,8 +4,10 @@
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
-/// Bytes of the checkpoint image in one chunk.
-pub const CHUNK: usize = 56;
+/// Bytes of the checkpoint image in one chunk: 48, so that a chunk message (50 bytes) is no
+/// larger than an `Observation` and every node's messages keep their size in RAM (8 segments
+/// on CAN 2.0, 6 image bytes a frame, as many as 56 would carry in 9).
+pub const CHUNK: usize = 48;
 
 /// The chunk index past the last one of an image of `len` bytes (the number of chunks).
 pub const fn chunk_count(len: u32) -> u32 {
@@ -74,15 +76,15 @@ pub struct TablesStatus {
     pub stored_sequence: u32,
 }
 
-/// 56 bytes of a checkpoint image (serde handles arrays of up to 32 elements: seven rows
-/// of eight, the same bytes in order on the wire).
+/// 48 bytes of a checkpoint image (serde handles arrays of up to 32 elements: six rows of
+/// eight, the same bytes in order on the wire).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
-pub struct ChunkData([[u8; 8]; 7]);
+pub struct ChunkData([[u8; 8]; 6]);
 
 impl ChunkData {
     /// `bytes`, zero-padded to [`CHUNK`] (at most [`CHUNK`] are taken).
     pub fn new(bytes: &[u8]) -> ChunkData {
-        let mut rows = [[0u8; 8]; 7];
+        let mut rows = [[0u8; 8]; 6];
         for (i, b) in bytes.iter().take(CHUNK).enumerate() {
             rows[i / 8][i % 8] = *b;
         }
@@ -101,12 +103,12 @@ impl ChunkData {
 /// repeated when no chunk comes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableReadRequest {
-    /// The chunk: image bytes `56 * index ..`.
+    /// The chunk: image bytes `48 * index ..`.
     #[serde(with = "postcard::fixint::le")]
     pub index: u16,
 }
 
-/// Chunk `index` of the controller's checkpoint image (controller report): bytes `56 *
+/// Chunk `index` of the controller's checkpoint image (controller report): bytes `48 *
 /// index ..`, zero beyond the image's end.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableReadChunk {
