@@ -14,6 +14,11 @@ use trn_protocol::{
 
 const RESEED: u32 = 1 << 8;
 
+/// Asks the node for a nonce for `op` at `now`.
+fn issue(n: &mut trn_node::ControllerNode, b: &mut Board, op: GuardOp, now: u32) -> u32 {
+    nonce(&send(n, b, GuardRequest { op }.into(), now), op)
+}
+
 fn nonce(out: &Outbox, op: GuardOp) -> u32 {
     out.iter()
         .find_map(|e| match e.msg {
@@ -58,49 +63,22 @@ fn a_reseed_of_learned_tables_needs_a_fresh_nonce() {
     };
     refused(&send(&mut n, &mut b, wrong.into(), 10), Refusal::Wrong);
     // issued, presented too late (2 s of the node's clock)
-    let out = send(
-        &mut n,
-        &mut b,
-        GuardRequest {
-            op: GuardOp::Reseed,
-        }
-        .into(),
-        100,
-    );
     let stale = ConfirmedSessionConfig {
         config: other,
-        nonce: nonce(&out, GuardOp::Reseed),
+        nonce: issue(&mut n, &mut b, GuardOp::Reseed, 100),
     };
     refused(&send(&mut n, &mut b, stale.into(), 2101), Refusal::Stale);
     // issued for another operation
-    let out = send(
-        &mut n,
-        &mut b,
-        GuardRequest {
-            op: GuardOp::StoreErase,
-        }
-        .into(),
-        3000,
-    );
     let other_op = ConfirmedSessionConfig {
         config: other,
-        nonce: nonce(&out, GuardOp::StoreErase),
+        nonce: issue(&mut n, &mut b, GuardOp::StoreErase, 3000),
     };
     refused(&send(&mut n, &mut b, other_op.into(), 3001), Refusal::Wrong);
     assert_eq!(image(&b.ctrl), before, "a refusal changed the tables");
     // fresh: accepted, echoed as the plain configuration, new tables seeded
-    let out = send(
-        &mut n,
-        &mut b,
-        GuardRequest {
-            op: GuardOp::Reseed,
-        }
-        .into(),
-        4000,
-    );
     let fresh = ConfirmedSessionConfig {
         config: other,
-        nonce: nonce(&out, GuardOp::Reseed),
+        nonce: issue(&mut n, &mut b, GuardOp::Reseed, 4000),
     };
     let out = send(&mut n, &mut b, fresh.into(), 5999);
     assert!(errors(&out).is_empty(), "{out:?}");

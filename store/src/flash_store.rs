@@ -431,33 +431,25 @@ impl<F: NorFlash> FlashStore<F> {
         };
         let flash = |e: F::Error| SaveError::Flash(code(e));
         let len = cursor.len() as u32;
-        // erase the slot's pages from its first (the header's) on, one a step
-        if self
+        // erase the slot's pages from its first (the header's) on, one a step; then program
+        // up to `step_bytes` a step
+        let mut progressed = self
             .erase_towards(slot, &mut erased, Self::IMAGE_AT + len)
-            .map_err(flash)?
-        {
-            self.job = Job::Save {
-                slot,
-                sequence,
-                cursor,
-                erased,
-                programmed,
-            };
-            return Ok(None);
+            .map_err(flash)?;
+        let mut budget = if progressed { 0 } else { self.step_bytes };
+        while budget > 0 && !cursor.is_done() {
+            let mut piece = [0u8; PROGRAM];
+            // the cursor's only refusal: the tables changed since the save began
+            let n = cursor
+                .read(ctrl, &mut piece)
+                .map_err(|_| SaveError::Changed)?;
+            self.program(slot, &mut erased, programmed, &piece[..n])
+                .map_err(flash)?;
+            programmed += n as u32;
+            budget = budget.saturating_sub(PROGRAM as u32);
+            progressed = true;
         }
-        if !cursor.is_done() {
-            let mut budget = self.step_bytes;
-            while budget > 0 && !cursor.is_done() {
-                let mut piece = [0u8; PROGRAM];
-                // the cursor's only refusal: the tables changed since the save began
-                let n = cursor
-                    .read(ctrl, &mut piece)
-                    .map_err(|_| SaveError::Changed)?;
-                self.program(slot, &mut erased, programmed, &piece[..n])
-                    .map_err(flash)?;
-                programmed += n as u32;
-                budget = budget.saturating_sub(PROGRAM as u32);
-            }
+        if progressed {
             self.job = Job::Save {
                 slot,
                 sequence,
