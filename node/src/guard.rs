@@ -4,8 +4,6 @@
 //! (the MCU's RNG; on a host, a seeded generator). An operation without it, or with a stale,
 //! used or wrong one, is refused and changes nothing (protocol/SPEC.md 3.4).
 
-use rand_core::{RngCore, SeedableRng};
-use rand_xoshiro::Xoshiro128PlusPlus;
 use trn_protocol::GuardOp;
 
 /// Why the guard refused an operation (`GUARD_REFUSED` detail, low byte).
@@ -31,55 +29,75 @@ pub fn op_code(op: GuardOp) -> u32 {
     op as u32 + 1
 }
 
-/// The nonce last issued.
+/// xoshiro128++ (Blackman and Vigna), the generator of `rand_xoshiro::Xoshiro128PlusPlus`,
+/// written out so that a node is built by a `const fn` (the firmware's is a `static`); a test
+/// checks it against the crate. The all-zero state, which the algorithm never leaves or
+/// enters, stands for "not seeded".
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Issued {
-    op: GuardOp,
-    nonce: u32,
-    at_ms: u32,
+struct Xoshiro128pp([u32; 4]);
+
+impl Xoshiro128pp {
+    fn next_u32(&mut self) -> u32 {
+        let s = &mut self.0;
+        let result = s[0].wrapping_add(s[3]).rotate_left(7).wrapping_add(s[0]);
+        let t = s[1] << 9;
+        s[2] ^= s[0];
+        s[3] ^= s[1];
+        s[1] ^= s[2];
+        s[0] ^= s[3];
+        s[2] ^= t;
+        s[3] = s[3].rotate_left(11);
+        result
+    }
 }
 
-/// The node's nonce generator and the nonce it issued last.
+/// The node's nonce generator and the nonce it issued last, in 32 bytes (a nonce is never 0,
+/// so 0 stands for none).
 #[derive(Debug, Clone)]
 pub(crate) struct Guard {
-    rng: Option<Xoshiro128PlusPlus>,
-    issued: Option<Issued>,
-    /// The last nonce presented against an issued one (accepted, stale or wrong): a nonce is
-    /// good for one try.
-    spent: Option<u32>,
+    rng: Xoshiro128pp,
+    /// The operation, nonce (0: none) and issue time of the nonce issued last.
+    op: GuardOp,
+    issued: u32,
+    issued_ms: u32,
+    /// The last nonce presented against an issued one (accepted, stale or wrong), 0 none: a
+    /// nonce is good for one try.
+    spent: u32,
 }
 
 impl Guard {
     /// A guard that issues nothing until seeded.
     pub(crate) const fn new() -> Guard {
         Guard {
-            rng: None,
-            issued: None,
-            spent: None,
+            rng: Xoshiro128pp([0; 4]),
+            op: GuardOp::Reseed,
+            issued: 0,
+            issued_ms: 0,
+            spent: 0,
         }
     }
 
-    /// Seeds the generator (at boot, from a source the bus cannot predict).
+    /// Seeds the generator (at boot, from a source the bus cannot predict); an all-zero seed
+    /// (a failed RNG) leaves the guard unseeded.
     pub(crate) fn seed(&mut self, seed: [u8; 16]) {
-        self.rng = Some(Xoshiro128PlusPlus::from_seed(seed));
-        self.issued = None;
+        let word = |i: usize| u32::from_le_bytes([seed[i], seed[i + 1], seed[i + 2], seed[i + 3]]);
+        self.rng = Xoshiro128pp([word(0), word(4), word(8), word(12)]);
+        self.issued = 0;
     }
 
     /// A fresh nonce for `op` (never 0: 0 means "no nonce" on the wire); it replaces any
     /// nonce issued before.
     pub(crate) fn issue(&mut self, op: GuardOp, now_ms: u32) -> Result<u32, Refusal> {
-        let rng = self.rng.as_mut().ok_or(Refusal::Unavailable)?;
+        if self.rng.0 == [0; 4] {
+            return Err(Refusal::Unavailable);
+        }
         let nonce = loop {
-            let n = rng.next_u32();
-            if n != 0 && Some(n) != self.spent {
+            let n = self.rng.next_u32();
+            if n != 0 && n != self.spent {
                 break n;
             }
         };
-        self.issued = Some(Issued {
-            op,
-            nonce,
-            at_ms: now_ms,
-        });
+        (self.op, self.issued, self.issued_ms) = (op, nonce, now_ms);
         Ok(nonce)
     }
 
@@ -95,17 +113,18 @@ impl Guard {
         if nonce == 0 {
             return Err(Refusal::NoNonce);
         }
-        if self.spent == Some(nonce) {
+        if self.spent == nonce {
             return Err(Refusal::Used);
         }
-        let Some(issued) = self.issued.take() else {
-            return Err(Refusal::Wrong);
-        };
-        self.spent = Some(issued.nonce);
-        if issued.nonce != nonce || issued.op != op {
+        if self.issued == 0 {
             return Err(Refusal::Wrong);
         }
-        if now_ms.wrapping_sub(issued.at_ms) > window_ms {
+        let issued = core::mem::take(&mut self.issued);
+        self.spent = issued;
+        if issued != nonce || self.op != op {
+            return Err(Refusal::Wrong);
+        }
+        if now_ms.wrapping_sub(self.issued_ms) > window_ms {
             return Err(Refusal::Stale);
         }
         Ok(())
@@ -164,6 +183,21 @@ mod tests {
         let mut g = Guard::new();
         assert_eq!(g.issue(GuardOp::Reseed, 0), Err(Refusal::Unavailable));
         assert_eq!(g.check(GuardOp::Reseed, 1, 0, 2000), Err(Refusal::Wrong));
+        g.seed([0; 16]);
+        assert_eq!(g.issue(GuardOp::Reseed, 0), Err(Refusal::Unavailable));
+    }
+
+    /// The generator is xoshiro128++ as the `rand_xoshiro` crate has it.
+    #[test]
+    fn the_generator_is_xoshiro128_plus_plus() {
+        use rand_core::{RngCore, SeedableRng};
+        let seed: [u8; 16] = core::array::from_fn(|i| (i as u8).wrapping_mul(37) ^ 0xA5);
+        let mut reference = rand_xoshiro::Xoshiro128PlusPlus::from_seed(seed);
+        let mut g = Guard::new();
+        g.seed(seed);
+        for _ in 0..1000 {
+            assert_eq!(g.rng.next_u32(), reference.next_u32());
+        }
     }
 
     #[test]

@@ -58,8 +58,6 @@ pub struct ControllerNode {
     pub(crate) session_required: bool,
     /// A bus mode the encoder must switch to before the next frame is sent.
     bus_mode: Option<BusMode>,
-    /// The newest trial started in this session: a target of an older one is late.
-    newest_trial: Option<u32>,
     /// The last trial that ended, whether it was a grasp, and the messages that ended it.
     last_trial: Option<u32>,
     last_grasp: bool,
@@ -102,7 +100,6 @@ impl ControllerNode {
             session: None,
             session_required: false,
             bus_mode: None,
-            newest_trial: None,
             last_trial: None,
             last_grasp: false,
             last_final: heapless::Vec::new(),
@@ -332,9 +329,10 @@ impl ControllerNode {
                 self.mode = m.mode;
                 self.idle_requested = m.mode == Mode::Idle;
                 if m.mode == Mode::Idle {
-                    // the session is over: the next one starts with its configuration
+                    // the session is over: the next one starts with its configuration, and
+                    // its trial numbers afresh
                     self.session = None;
-                    self.newest_trial = None;
+                    self.forget_trials();
                     self.session_required |= learned(ctrl);
                 }
                 // the acknowledgement: the mode now in force, to every node
@@ -464,7 +462,7 @@ impl ControllerNode {
         };
         self.session = Some(*c);
         self.session_required = false;
-        self.newest_trial = None;
+        self.forget_trials();
         self.bus_mode = Some(if c.fd { BusMode::Fd } else { BusMode::Classic });
         push(out, NodeId::Broadcast, (*c).into());
     }
@@ -493,13 +491,23 @@ impl ControllerNode {
             }
             return true;
         }
-        if let Some(newest) = self.newest_trial {
+        // the newest trial started is the one in progress, or else the one that ended last
+        if let Some(newest) = self.trial.or(self.last_trial) {
             if newest.wrapping_sub(trial) < 1 << 31 {
                 self.stats.ignored += 1;
                 return true;
             }
         }
         false
+    }
+
+    /// A session begins or ends: no trial of it is remembered (a new session numbers its
+    /// trials afresh).
+    fn forget_trials(&mut self) {
+        if self.trial.is_none() {
+            self.last_trial = None;
+            self.last_final.clear();
+        }
     }
 
     /// True (and reported with `out`) when trials are refused: the tables learned and no
@@ -563,7 +571,6 @@ impl ControllerNode {
         self.trial = Some(trial);
         self.trial_learns = learns;
         self.last_grasp = matches!(task, Task::Grasp { .. });
-        self.newest_trial = Some(trial);
         self.pending = Pending::None;
         self.stats.trials += 1;
         match ctrl.begin_with(task, fine) {

@@ -18,13 +18,36 @@ use crate::guard::op_code;
 use crate::node::{error, ControllerNode};
 use crate::outbox::{push, Outbox};
 
-/// An image being written in.
+/// An image written in: being staged, or applied (a repeated end is answered again).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Write {
     len: u32,
     crc: u32,
     fingerprint: u32,
     next: u16,
+    state: WriteState,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum WriteState {
+    None,
+    Staging,
+    Applied,
+}
+
+impl Write {
+    const NONE: Write = Write {
+        len: 0,
+        crc: 0,
+        fingerprint: 0,
+        next: 0,
+        state: WriteState::None,
+    };
+
+    /// The transfer being staged, if any.
+    fn staging(&self) -> Option<Write> {
+        (self.state == WriteState::Staging).then_some(*self)
+    }
 }
 
 /// Where the save stands.
@@ -50,9 +73,7 @@ pub(crate) struct TableState {
     /// Learning steps (both stages) at the last save or restore.
     steps_at_save: u32,
     save: Save,
-    write: Option<Write>,
-    /// The CRC of the last image applied (a repeated end is answered again).
-    applied: Option<u32>,
+    write: Write,
     /// A status to announce at the next poll (at boot).
     announce: Option<TablesEvent>,
 }
@@ -65,8 +86,7 @@ impl TableState {
             dirty: true,
             steps_at_save: 0,
             save: Save::Idle,
-            write: None,
-            applied: None,
+            write: Write::NONE,
             announce: None,
         }
     }
@@ -349,7 +369,7 @@ impl ControllerNode {
         out: &mut Outbox,
     ) {
         const OP: u32 = table_op::WRITE_BEGIN;
-        if let Some(w) = self.tables.write {
+        if let Some(w) = self.tables.write.staging() {
             if (w.len, w.crc, w.fingerprint) == (b.image_len, b.image_crc, b.fingerprint) {
                 return Self::ack(out, &w);
             }
@@ -384,9 +404,9 @@ impl ControllerNode {
             crc: b.image_crc,
             fingerprint: b.fingerprint,
             next: 0,
+            state: WriteState::Staging,
         };
-        self.tables.write = Some(w);
-        self.tables.applied = None;
+        self.tables.write = w;
         Self::ack(out, &w);
     }
 
@@ -398,7 +418,7 @@ impl ControllerNode {
         c: &TableWriteChunk,
         out: &mut Outbox,
     ) {
-        let Some(mut w) = self.tables.write else {
+        let Some(mut w) = self.tables.write.staging() else {
             self.stats.ignored += 1;
             return;
         };
@@ -411,12 +431,12 @@ impl ControllerNode {
             return failed(out, table_op::WRITE_CHUNK, table_reason::NO_STORE, 0);
         };
         if let Err(e) = store.stage_write(offset, &c.data.bytes()[..n]) {
-            self.tables.write = None;
+            self.tables.write = Write::NONE;
             let (reason, extra) = stage_reason(e);
             return failed(out, table_op::WRITE_CHUNK, reason, extra);
         }
         w.next += 1;
-        self.tables.write = Some(w);
+        self.tables.write = w;
         Self::ack(out, &w);
     }
 
@@ -430,16 +450,17 @@ impl ControllerNode {
         out: &mut Outbox,
     ) {
         const OP: u32 = table_op::APPLY;
-        let Some(w) = self.tables.write.filter(|w| w.crc == e.image_crc) else {
-            if self.tables.applied == Some(e.image_crc) {
-                return self.push_status(ctrl, TablesEvent::Applied, out);
-            }
+        let w = self.tables.write;
+        if w.crc != e.image_crc || w.state == WriteState::None {
             return failed(out, OP, table_reason::NOT_STARTED, 0);
-        };
+        }
+        if w.state == WriteState::Applied {
+            return self.push_status(ctrl, TablesEvent::Applied, out);
+        }
         if (w.next as u32) < chunk_count(w.len) {
             return Self::ack(out, &w);
         }
-        self.tables.write = None;
+        self.tables.write = Write::NONE;
         let Some(t) = ctrl.tables() else {
             return failed(out, OP, table_reason::NO_TABLES, 0);
         };
@@ -457,7 +478,10 @@ impl ControllerNode {
                 tables.provenance = copy.provenance;
                 tables.steps_at_save = copy.steps.0.wrapping_add(copy.steps.1);
                 tables.dirty = false;
-                tables.applied = Some(w.crc);
+                tables.write = Write {
+                    state: WriteState::Applied,
+                    ..w
+                };
                 // the tables are new: a session must say what they are before trials
                 self.session = None;
                 self.session_required = learned(ctrl);
@@ -486,5 +510,21 @@ impl ControllerNode {
                 false
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The firmware's compact build has almost no RAM to spare: the node's state of its
+    /// tables and of its guard stays a few dozen bytes (the image is never buffered).
+    #[test]
+    fn the_tables_and_guard_state_is_a_few_dozen_bytes() {
+        let tables = core::mem::size_of::<TableState>();
+        let guard = core::mem::size_of::<crate::guard::Guard>();
+        println!("TableState {tables} B, Guard {guard} B");
+        assert!(tables <= 40, "{tables}");
+        assert!(guard <= 32, "{guard}");
     }
 }
