@@ -252,7 +252,8 @@ impl ControllerNode {
         if since >= self.cfg.save_every_steps && self.trial.is_none() {
             self.want_save();
         }
-        if self.trial_learns && self.trial.is_some() {
+        // never while a trial learns, nor while an image is staged in the slot a save would use
+        if self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some() {
             return;
         }
         let provenance = self.tables.provenance;

@@ -294,3 +294,35 @@ fn a_write_that_does_not_verify_is_not_applied() {
         )]
     );
 }
+
+/// A save due while an image is being written in waits for the write's end: it would take
+/// the slot the image is staged in.
+#[test]
+fn a_save_waits_for_a_write_in_progress() {
+    let source = learned(43, 1);
+    let image_in = image(&source);
+    let mut rig = Rig::new(BusMode::Fd, FaultConfig::default());
+    let fp = source.config().fingerprint();
+    rig.write(&image_in, fp, Some(100)).unwrap();
+    // asked to save meanwhile: nothing happens until the write ends
+    rig.ask(
+        StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        }
+        .into(),
+        |_| Some(()),
+    );
+    for _ in 0..100 {
+        rig.ask(TableReadRequest { index: 0 }.into(), |m| {
+            matches!(m, Message::TableReadChunk(_)).then_some(())
+        });
+    }
+    assert_eq!(
+        rig.board.store.stored().unwrap().sequence,
+        1,
+        "no save over the staged image"
+    );
+    rig.write(&image_in, fp, None).unwrap();
+    assert!(same(&rig.board.ctrl, &source));
+}
