@@ -15,11 +15,21 @@
 //! preset, ablation and configuration fingerprint let the caller refuse tables learned under
 //! another configuration ([`Header::config_matches`]). The values are f32 in every build: a
 //! compact build (i16 tables) reads and writes the same format, rounding on restore.
+//!
+//! [`save`] and [`restore`] take the whole image in memory (the host). A microcontroller
+//! has no RAM for it: [`ImageCursor`] and [`read_at`] produce the same bytes piece by piece
+//! from the live tables, and [`restore_from`] restores from an [`ImageSource`] read in pieces
+//! (a flash slot), in two passes (`stream.rs`).
 
 use crate::controller::Controller;
 use crate::error::{Error, Result};
 use crate::net::{Stage1Net, Stage2Net};
 use serde::{Deserialize, Serialize};
+
+mod stream;
+pub use stream::{
+    check_from, read_at, restore_from, verify_from, ImageCursor, ImageSource, SourceError,
+};
 
 /// The format version this build writes and reads (2: provenance in the header).
 pub const VERSION: u16 = 2;
@@ -59,7 +69,8 @@ impl Provenance {
     }
 }
 const MAGIC: [u8; 4] = *b"TRNC";
-const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// The CRC-32/ISO-HDLC of the format (a `static`: a streamed image keeps a running digest of it).
+static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// The checkpoint header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -101,10 +112,9 @@ const HEADER_MAX: usize = 3 + 6 * 3 + 3 * 5 + 2;
 /// Upper bound of a checkpoint's size in bytes (for buffers).
 pub const MAX_SIZE: usize = 4 + HEADER_MAX + VALUES * 4 + 4;
 
-/// Writes a checkpoint of `ctrl`, whose configuration came from `provenance`, into `buf`
-/// and returns its length.
-pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result<usize> {
-    let header = Header {
+/// The header a checkpoint of `ctrl` carries.
+fn header_of(ctrl: &Controller, provenance: Provenance) -> Header {
+    Header {
         version: VERSION,
         shape1: SHAPE1,
         shape2: SHAPE2,
@@ -112,7 +122,13 @@ pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result
         t2: ctrl.stage2().learning_step(),
         provenance,
         config_fingerprint: ctrl.config().fingerprint(),
-    };
+    }
+}
+
+/// Writes a checkpoint of `ctrl`, whose configuration came from `provenance`, into `buf`
+/// and returns its length. [`ImageCursor`] writes the same bytes piece by piece.
+pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result<usize> {
+    let header = header_of(ctrl, provenance);
     if buf.len() < 4 {
         return Err(Error::BufferTooSmall { needed: MAX_SIZE });
     }
@@ -185,26 +201,60 @@ pub fn verify(bytes: &[u8]) -> Result<Header> {
 /// order (stage 1's weights, pressures, Jacobians, then stage 2's). The format is f32 in
 /// either build, so a checkpoint moves between them; a compact build rounds on restore.
 fn values_within_limits(values: &[u8]) -> bool {
-    use crate::entry::{Entry, Table, TABLE_SCALES};
-    let held = |limit: f32, scale| limit.min(Table::max_abs(scale));
-    let (w, p, a) = VALUE_LIMITS;
-    let (w, p, a) = (
-        held(w, TABLE_SCALES.w),
-        held(p, TABLE_SCALES.p),
-        held(a, TABLE_SCALES.a),
-    );
-    let tables = |n: usize, d: usize, m: usize| [(n * d, w), (n * m, p), (n * m * d, a)];
-    let [s1, s2] = [tables(1000, 8, 5), tables(200, 4, 3)];
-    let mut chunks = values.chunks_exact(4);
-    for (count, limit) in s1.into_iter().chain(s2) {
-        for c in chunks.by_ref().take(count) {
-            match postcard::from_bytes::<f32>(c) {
-                Ok(x) if x.is_finite() && x.abs() <= limit => {}
-                _ => return false,
-            }
+    let limits = ValueLimits::new();
+    values
+        .chunks_exact(4)
+        .enumerate()
+        .all(|(i, c)| limits.holds(i, value_of(c)))
+}
+
+/// The f32 a checkpoint stores in 4 bytes (postcard: little endian).
+fn value_of(bytes: &[u8]) -> f32 {
+    postcard::from_bytes::<f32>(bytes).unwrap_or(f32::NAN)
+}
+
+/// The bound of every value in checkpoint order: [`VALUE_LIMITS`] within what this build's
+/// tables hold.
+struct ValueLimits {
+    /// (end index, bound) of the six tables: stage 1's weights, pressures, Jacobians, then
+    /// stage 2's.
+    tables: [(usize, f32); 6],
+}
+
+impl ValueLimits {
+    fn new() -> Self {
+        use crate::entry::{Entry, Table, TABLE_SCALES};
+        let held = |limit: f32, scale| limit.min(Table::max_abs(scale));
+        let (w, p, a) = VALUE_LIMITS;
+        let (w, p, a) = (
+            held(w, TABLE_SCALES.w),
+            held(p, TABLE_SCALES.p),
+            held(a, TABLE_SCALES.a),
+        );
+        let sizes = [
+            (1000 * 8, w),
+            (1000 * 5, p),
+            (1000 * 5 * 8, a),
+            (200 * 4, w),
+            (200 * 3, p),
+            (200 * 3 * 4, a),
+        ];
+        let mut end = 0;
+        ValueLimits {
+            tables: sizes.map(|(count, limit)| {
+                end += count;
+                (end, limit)
+            }),
         }
     }
-    true
+
+    /// True when value `i` (checkpoint order) may be `x`: finite and within its table's bound.
+    fn holds(&self, i: usize, x: f32) -> bool {
+        match self.tables.iter().find(|(end, _)| i < *end) {
+            Some(&(_, limit)) => x.is_finite() && x.abs() <= limit,
+            None => false,
+        }
+    }
 }
 
 /// Restores both networks from a checkpoint. On any error `ctrl` is left as it was.

@@ -6,6 +6,7 @@
 use crate::config::Config;
 use crate::controller::{Command, Controller, Observation, Task};
 use crate::error::Result;
+use crate::persist::Tables;
 use crate::stage::FineMoves;
 
 /// A controller as the node drives it: tasks and observations in, commands out.
@@ -24,6 +25,12 @@ pub trait Control {
     fn set_config(&mut self, cfg: Config) -> Result<()>;
     /// New initial tables (or whatever the law starts from) from `seed`.
     fn init_random(&mut self, seed: u64);
+    /// The TRN tables this controller holds and the store that keeps them, for a node that
+    /// reads them out, writes them in, saves them and guards them; `None` for a controller
+    /// without such tables (the default: nothing of it to read, write or lose).
+    fn tables(&mut self) -> Option<Tables<'_>> {
+        None
+    }
 }
 
 impl Control for Controller {
@@ -53,6 +60,13 @@ impl Control for Controller {
 
     fn init_random(&mut self, seed: u64) {
         Controller::init_random(self, seed)
+    }
+
+    fn tables(&mut self) -> Option<Tables<'_>> {
+        Some(Tables {
+            ctrl: self,
+            store: None,
+        })
     }
 }
 
@@ -85,5 +99,9 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
 
     fn init_random(&mut self, seed: u64) {
         (**self).init_random(seed)
+    }
+
+    fn tables(&mut self) -> Option<Tables<'_>> {
+        (**self).tables()
     }
 }

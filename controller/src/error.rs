@@ -73,6 +73,10 @@ pub enum Error {
     },
     /// A checkpoint decoded but holds non-finite values.
     CheckpointContents,
+    /// A checkpoint written or restored in pieces changed between the pieces: the tables
+    /// changed while their image was being written, or a source read differently on the
+    /// second pass of a restore.
+    CheckpointChanged,
 }
 
 impl fmt::Display for Error {
@@ -119,6 +123,12 @@ impl fmt::Display for Error {
                 "checkpoint CRC mismatch: stored {stored:#010x}, computed {computed:#010x}"
             ),
             Error::CheckpointContents => write!(f, "checkpoint holds non-finite values"),
+            Error::CheckpointChanged => {
+                write!(
+                    f,
+                    "checkpoint changed while it was written or read in pieces"
+                )
+            }
         }
     }
 }

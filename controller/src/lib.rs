@@ -17,7 +17,8 @@
 //!   until the tolerance (8.7) or a cap, updates).
 //! - [`config`]: every constant; [`Config::paper`] beside [`Config::project_default`].
 //! - [`presets`]: the named configurations every build (host, firmware) shares.
-//! - [`checkpoint`]: postcard checkpoints with a version and a CRC.
+//! - [`checkpoint`]: postcard checkpoints with a version and a CRC, whole or in pieces.
+//! - [`persist`]: what a node asks of the store that keeps the tables ([`persist::TableStore`]).
 //! - [`broyden`]: the classical alternative without training (uncalibrated visual servoing
 //!   with a Broyden Jacobian), selectable in place of the TRN ([`Law`]).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -39,6 +40,7 @@ mod error;
 #[allow(unsafe_code)]
 mod kernels;
 pub mod net;
+pub mod persist;
 pub mod presets;
 pub mod rank;
 pub mod rules;

@@ -153,6 +153,25 @@ impl<const N: usize, const D: usize, const M: usize> Trn<N, D, M> {
             .for_each(|&x| f(x.get(s.a)));
     }
 
+    /// Value `i` in checkpoint order ([`Trn::for_each_value`]): weights, pressures, then
+    /// Jacobians, neuron by neuron; `None` beyond [`Trn::VALUES`].
+    pub(crate) fn value(&self, i: usize) -> Option<f32> {
+        let s = TABLE_SCALES;
+        let (weights, pressures) = (N * D, N * M);
+        if i < weights {
+            Some(self.w[i / D][i % D].get(s.w))
+        } else if i < weights + pressures {
+            let j = i - weights;
+            Some(self.p[j / M][j % M].get(s.p))
+        } else if i < Self::VALUES {
+            let j = i - weights - pressures;
+            let (k, r) = (j / (M * D), j % (M * D));
+            Some(self.a[k][r / D][r % D].get(s.a))
+        } else {
+            None
+        }
+    }
+
     /// Mutable counterpart of [`Trn::for_each_value`] (each value read, passed to `f`,
     /// written back; rounded to the steps in a compact build).
     pub(crate) fn for_each_value_mut(&mut self, mut f: impl FnMut(&mut f32)) {

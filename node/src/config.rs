@@ -1,4 +1,4 @@
-//! The controller node's timing, one value for every build.
+//! The controller node's timing and its guard and save settings, one value for every build.
 
 /// Timing of the node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -10,16 +10,28 @@ pub struct NodeConfig {
     pub reply_timeout_ms: u32,
     /// Repeats of a request before the trial is given up (aborted with a reason).
     pub retries: u8,
+    /// How long a guard nonce stays valid after the node announced it (ms of its clock).
+    pub nonce_window_ms: u16,
+    /// Lets a `SessionConfig` with `keep_tables = false` re-seed tables that learned without
+    /// a nonce (a bench board whose tables are disposable); writes and erases stay guarded.
+    pub allow_unguarded_reset: bool,
+    /// Learning steps between two saves to the stored copy
+    /// (`trn_store::policy::steps_between_saves` of the part); `u32::MAX`: never by steps.
+    pub save_every_steps: u32,
 }
 
 impl NodeConfig {
     /// The node's timing on the firmware: heartbeats every 100 ms, a request repeated up to
-    /// 8 times, 200 ms apart. (Under QEMU's instruction counting the firmware's clock runs
+    /// 8 times, 200 ms apart; a guard nonce valid for 2 s; re-seeding learned tables guarded;
+    /// no saves by learning steps (a board with a store sets them from its flash). (Under QEMU's instruction counting the firmware's clock runs
     /// about ten times slower than the wall clock: 2 s of wall time.)
     pub const DEFAULT: NodeConfig = NodeConfig {
         heartbeat_period_ms: 100,
         reply_timeout_ms: 200,
         retries: 8,
+        nonce_window_ms: 2000,
+        allow_unguarded_reset: false,
+        save_every_steps: u32::MAX,
     };
 
     /// The host's loop (in-process bus, SocketCAN): the simulator answers within a

@@ -8,6 +8,11 @@
 //! [`Outbox`] that the caller frames onto its bus. [`ControllerNode::service`] is one turn
 //! of the loop on any `embedded-can` port, the code path every build shares.
 //!
+//! The node guards its learned tables against destructive operations that do not carry a
+//! fresh nonce ([`ControllerNode::seed_guard`], `guard.rs`), and serves them over the bus
+//! and to their store (`tables.rs`; a controller with a store is a
+//! [`trn_controller::persist::WithStore`]).
+//!
 //! One trial on the bus is specified in `protocol/SPEC.md`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
@@ -16,13 +21,16 @@
 pub mod codes;
 mod config;
 mod exchange;
+mod guard;
 mod node;
 mod outbox;
 mod service;
 mod stats;
+mod tables;
 
 pub use codes::controller_error_code;
 pub use config::NodeConfig;
+pub use guard::{op_code, Refusal};
 pub use node::{ControllerNode, NodeStats};
 pub use outbox::{send, FrameError, Outbox, OUTBOX};
 pub use service::PortError;

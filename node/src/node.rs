@@ -4,20 +4,24 @@
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
 
+use trn_controller::checkpoint::Provenance;
 use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task};
 use trn_controller::{Config, Law};
 use trn_protocol as proto;
 use trn_protocol::{
-    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, Heartbeat, Message, Mode,
-    ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig, TrialReport,
+    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, GuardNonce, GuardOp, Heartbeat,
+    Message, Mode, ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig,
+    TrialReport,
 };
 
 use crate::codes;
 use crate::config::NodeConfig;
 use crate::exchange::{GaveUp, Pending, ServoAnswer};
+use crate::guard::{op_code, Guard};
 use crate::outbox::{push, send, FrameError, Outbox};
 pub use crate::stats::NodeStats;
+use crate::tables::{learned, TableState};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PendingGrasp {
@@ -35,24 +39,34 @@ const FINAL: usize = 4;
 /// a `static`); every call borrows it.
 #[derive(Debug, Clone)]
 pub struct ControllerNode {
-    cfg: NodeConfig,
+    pub(crate) cfg: NodeConfig,
     seq: u16,
-    trial: Option<u32>,
+    pub(crate) trial: Option<u32>,
+    /// Whether the trial in progress updates the tables.
+    pub(crate) trial_learns: bool,
     pending: Pending,
     supervised: Option<(u32, [f32; 5])>,
     grasp: Option<PendingGrasp>,
-    mode: Mode,
+    pub(crate) mode: Mode,
     heartbeat_due_ms: Option<u32>,
     heartbeat_counter: u8,
     idle_requested: bool,
-    /// The session configuration in force (the last one accepted).
-    session: Option<SessionConfig>,
+    /// The session configuration in force (the last one accepted; none after `Idle`).
+    pub(crate) session: Option<SessionConfig>,
+    /// Trials are refused (`SESSION_REQUIRED`) while the tables learned and no session is in
+    /// force: at boot with restored tables, after `Idle`, after a refused `SessionConfig`.
+    pub(crate) session_required: bool,
     /// A bus mode the encoder must switch to before the next frame is sent.
     bus_mode: Option<BusMode>,
-    /// The last trial that ended, and the messages that ended it.
+    /// The last trial that ended, whether it was a grasp, and the messages that ended it.
     last_trial: Option<u32>,
+    last_grasp: bool,
     last_final: heapless::Vec<Envelope, FINAL>,
-    stats: NodeStats,
+    /// The guard of destructive operations.
+    pub(crate) guard: Guard,
+    /// The tables' provenance, store and transfers.
+    pub(crate) tables: TableState,
+    pub(crate) stats: NodeStats,
 }
 
 /// The controller's fine-move rule for a target's `fine_moves` field.
@@ -64,7 +78,7 @@ fn fine_moves(n: u8) -> FineMoves {
     }
 }
 
-fn error(out: &mut Outbox, code: u16, detail: u32) {
+pub(crate) fn error(out: &mut Outbox, code: u16, detail: u32) {
     push(out, NodeId::Controller, ErrorReport { code, detail }.into());
 }
 
@@ -75,6 +89,7 @@ impl ControllerNode {
             cfg,
             seq: 0,
             trial: None,
+            trial_learns: false,
             pending: Pending::None,
             supervised: None,
             grasp: None,
@@ -83,9 +98,13 @@ impl ControllerNode {
             heartbeat_counter: 0,
             idle_requested: false,
             session: None,
+            session_required: false,
             bus_mode: None,
             last_trial: None,
+            last_grasp: false,
             last_final: heapless::Vec::new(),
+            guard: Guard::new(),
+            tables: TableState::new(),
             stats: NodeStats {
                 trials: 0,
                 aborted: 0,
@@ -97,6 +116,19 @@ impl ControllerNode {
                 frame_errors: 0,
             },
         }
+    }
+
+    /// Seeds the generator of the guard's nonces, at boot, from a source the bus cannot
+    /// predict (the MCU's RNG; on a host, OS entropy or a seeded generator). Until then the
+    /// node issues no nonce: destructive operations on tables that learned are refused
+    /// (`GUARD_REFUSED`, reason 5), whatever a replay carries.
+    pub fn seed_guard(&mut self, seed: [u8; 16]) {
+        self.guard.seed(seed);
+    }
+
+    /// True while trials are refused until a session is configured (`SESSION_REQUIRED`).
+    pub fn session_required(&self) -> bool {
+        self.session_required
     }
 
     /// Counters.
@@ -160,6 +192,7 @@ impl ControllerNode {
                 error(out, codes::GRIPPER_TIMEOUT, self.last_trial.unwrap_or(0));
             }
         }
+        self.poll_tables(ctrl, out);
     }
 
     /// Feeds one received frame through `rx`; a completed message is handled and every
@@ -234,7 +267,9 @@ impl ControllerNode {
                 }
             }
             (NodeId::Controller, Message::GraspRequest(g)) => {
-                if self.repeated(g.trial, out) {
+                // one of a grasp's three start messages: a repeat of a finished grasp is
+                // answered once, at its Stage2Target
+                if self.repeated(g.trial, false, out) || self.refuses_trial(ctrl, g.trial, None) {
                     return;
                 }
                 if self.grasp.map(|p| p.trial) != Some(g.trial) {
@@ -246,7 +281,9 @@ impl ControllerNode {
                 }
             }
             (NodeId::Controller, Message::Stage1Target(t)) => {
-                if self.repeated(t.trial, out) {
+                if self.repeated(t.trial, !t.grasp, out)
+                    || self.refuses_trial(ctrl, t.trial, Some(out))
+                {
                     return;
                 }
                 if t.grasp {
@@ -279,7 +316,8 @@ impl ControllerNode {
                 self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::Stage2Target(t)) => {
-                if self.repeated(t.trial, out) {
+                if self.repeated(t.trial, true, out) || self.refuses_trial(ctrl, t.trial, Some(out))
+                {
                     return;
                 }
                 if t.grasp {
@@ -304,13 +342,54 @@ impl ControllerNode {
                 self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::ModeChange(m)) => {
+                self.entering_mode(m.mode);
                 self.mode = m.mode;
                 self.idle_requested = m.mode == Mode::Idle;
+                if m.mode == Mode::Idle {
+                    // the session is over: the next one starts with its configuration, and
+                    // its trial numbers afresh
+                    self.session = None;
+                    self.forget_trials();
+                    self.session_required |= learned(ctrl);
+                }
                 // the acknowledgement: the mode now in force, to every node
                 let echo = ModeChange { mode: self.mode };
                 push(out, NodeId::Broadcast, echo.into());
             }
-            (NodeId::Controller, Message::SessionConfig(c)) => self.on_session_config(ctrl, c, out),
+            (NodeId::Controller, Message::SessionConfig(c)) => {
+                self.on_session_config(ctrl, c, 0, now_ms, out)
+            }
+            (NodeId::Controller, Message::ConfirmedSessionConfig(c)) => {
+                self.on_session_config(ctrl, &c.config, c.nonce, now_ms, out)
+            }
+            (NodeId::Controller, Message::GuardRequest(r)) => {
+                match self.guard.issue(r.op, now_ms) {
+                    Ok(nonce) => {
+                        let window_ms = self.cfg.nonce_window_ms;
+                        let n = GuardNonce {
+                            op: r.op,
+                            nonce,
+                            window_ms,
+                        };
+                        push(out, NodeId::Controller, n.into());
+                    }
+                    Err(refusal) => {
+                        let detail = op_code(r.op) << 8 | refusal as u32;
+                        error(out, codes::GUARD_REFUSED, detail)
+                    }
+                }
+            }
+            (NodeId::Controller, Message::StoreCommand(c)) => {
+                self.on_store_command(ctrl, c, now_ms, out)
+            }
+            (NodeId::Controller, Message::TableReadRequest(r)) => {
+                self.on_read_request(ctrl, r, out)
+            }
+            (NodeId::Controller, Message::TableWriteBegin(b)) => {
+                self.on_write_begin(ctrl, b, now_ms, out)
+            }
+            (NodeId::Controller, Message::TableWriteChunk(c)) => self.on_write_chunk(ctrl, c, out),
+            (NodeId::Controller, Message::TableWriteEnd(e)) => self.on_write_end(ctrl, e, out),
             (_, Message::Emergency(_)) => {
                 if self.trial.is_some() {
                     self.abort(ctrl, out);
@@ -324,49 +403,83 @@ impl ControllerNode {
     /// a new configuration and tables seeded from `seed` (or, with `keep_tables`, a check that
     /// the tables held were learned under this configuration); acknowledged by the echo to
     /// `Broadcast`. A repeat of the configuration in force is acknowledged again without
-    /// re-seeding. Not inlined: the `Config` built here stays out of the callers' frames.
+    /// re-seeding. Re-seeding tables that learned needs the guard's nonce (`nonce`, from a
+    /// `ConfirmedSessionConfig`; 0 from a plain one), unless the node allows unguarded
+    /// resets. A refusal on tables that learned leaves trials refused until a session is
+    /// accepted. Not inlined: the `Config` built here stays out of the callers' frames.
     #[inline(never)]
     fn on_session_config<C: Control + ?Sized>(
         &mut self,
         ctrl: &mut C,
         c: &SessionConfig,
+        nonce: u32,
+        now_ms: u32,
         out: &mut Outbox,
     ) {
         if self.session == Some(*c) {
+            self.session_required = false;
             push(out, NodeId::Broadcast, (*c).into());
             return;
         }
+        let learned = learned(ctrl);
+        let refuse = |node: &mut Self, detail: u32, out: &mut Outbox| {
+            node.session_required |= learned;
+            error(out, codes::CONFIG_REJECTED, detail)
+        };
         if self.mode != Mode::Idle || self.trial.is_some() {
-            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_NOT_IDLE);
+            return refuse(self, codes::CONFIG_NOT_IDLE, out);
         }
         // the codes were range-checked on decode (`Message::validate`)
-        let (Some(preset), Some(ablation)) =
-            (Preset::from_code(c.preset), Ablation::from_code(c.ablation))
-        else {
-            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+        let (Some(preset), Some(ablation), Some(law)) = (
+            Preset::from_code(c.preset),
+            Ablation::from_code(c.ablation),
+            Law::from_code(c.law),
+        ) else {
+            return refuse(self, codes::CONFIG_INVALID, out);
         };
         let image = ImageSize {
             width: c.image_width,
             height: c.image_height,
         };
-        let Some(law) = Law::from_code(c.law) else {
-            return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
-        };
         let cfg = Config {
             law,
             ..presets::configure(preset, ablation, image)
         };
+        let rejected = |e: CtrlError| match e {
+            CtrlError::UnsupportedLaw => codes::CONFIG_UNSUPPORTED,
+            _ => codes::CONFIG_INVALID,
+        };
         if c.keep_tables {
-            if ctrl.config().fingerprint() != cfg.fingerprint() {
-                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_MISMATCH);
+            if self.tables_fingerprint(ctrl) != cfg.fingerprint() {
+                return refuse(self, codes::CONFIG_MISMATCH, out);
+            }
+            if *ctrl.config() != cfg {
+                if let Err(e) = ctrl.set_config(cfg) {
+                    return refuse(self, rejected(e), out);
+                }
             }
         } else {
-            if ctrl.set_config(cfg).is_err() {
-                return error(out, codes::CONFIG_REJECTED, codes::CONFIG_INVALID);
+            if learned
+                && !self.cfg.allow_unguarded_reset
+                && !self.guard_allows(GuardOp::Reseed, nonce, now_ms, out)
+            {
+                self.session_required = true;
+                return;
+            }
+            if let Err(e) = ctrl.set_config(cfg) {
+                return refuse(self, rejected(e), out);
             }
             ctrl.init_random(c.seed);
+            self.tables_changed(ctrl, false);
+            self.tables.fingerprint = Some(cfg.fingerprint());
         }
+        self.tables.provenance = Provenance {
+            preset: c.preset,
+            ablation: c.ablation,
+        };
         self.session = Some(*c);
+        self.session_required = false;
+        self.forget_trials();
         self.bus_mode = Some(if c.fd { BusMode::Fd } else { BusMode::Classic });
         push(out, NodeId::Broadcast, (*c).into());
     }
@@ -377,21 +490,59 @@ impl ControllerNode {
     }
 
     /// True (and handled) when `trial` is the trial in progress (ignored: it is being
-    /// served) or the trial that ended last (its final messages are sent again: the runner
-    /// did not get them).
-    fn repeated(&mut self, trial: u32, out: &mut Outbox) -> bool {
+    /// served), the trial that ended last (its final messages are sent again, once per repeat
+    /// of its start: `completes` is true for the message that completes a start, a grasp's
+    /// `Stage2Target` or another trial's target), or older than the newest trial of the
+    /// session (a late duplicate: ignored).
+    fn repeated(&mut self, trial: u32, completes: bool, out: &mut Outbox) -> bool {
         if self.trial == Some(trial) {
             self.stats.repeated_targets += 1;
             return true;
         }
         if self.last_trial == Some(trial) {
             self.stats.repeated_targets += 1;
-            for env in &self.last_final {
-                push(out, env.node, env.msg);
+            if completes || !self.last_grasp {
+                for env in &self.last_final {
+                    push(out, env.node, env.msg);
+                }
             }
             return true;
         }
+        // the newest trial started is the one in progress, or else the one that ended last
+        if let Some(newest) = self.trial.or(self.last_trial) {
+            if newest.wrapping_sub(trial) < 1 << 31 {
+                self.stats.ignored += 1;
+                return true;
+            }
+        }
         false
+    }
+
+    /// A session begins or ends: no trial of it is remembered (a new session numbers its
+    /// trials afresh).
+    fn forget_trials(&mut self) {
+        if self.trial.is_none() {
+            self.last_trial = None;
+            self.last_final.clear();
+        }
+    }
+
+    /// True (and reported with `out`) when trials are refused: the tables learned and no
+    /// session is in force.
+    fn refuses_trial<C: Control + ?Sized>(
+        &mut self,
+        ctrl: &mut C,
+        trial: u32,
+        out: Option<&mut Outbox>,
+    ) -> bool {
+        if !(self.session_required && learned(ctrl)) {
+            return false;
+        }
+        match out {
+            Some(out) => error(out, codes::SESSION_REQUIRED, trial),
+            None => self.stats.ignored += 1,
+        }
+        true
     }
 
     /// True after a `ModeChange{Idle}`: the runner has ended the session (a host process
@@ -425,7 +576,18 @@ impl ControllerNode {
             ctrl.abort();
             self.stats.aborted += 1;
         }
+        let learns = match task {
+            Task::Stage1 { learn, .. } | Task::Stage2 { learn, .. } | Task::Grasp { learn, .. } => {
+                learn
+            }
+        };
+        if learns {
+            // the tables change: a save in progress starts again after the trial
+            self.tables_changed(ctrl, true);
+        }
         self.trial = Some(trial);
+        self.trial_learns = learns;
+        self.last_grasp = matches!(task, Task::Grasp { .. });
         self.pending = Pending::None;
         self.stats.trials += 1;
         match ctrl.begin_with(task, fine) {

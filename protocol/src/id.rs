@@ -63,6 +63,12 @@ kinds! {
     ModeChange = 0x18, true;
     /// The session's run parameters (command; node = controller, or broadcast for the echo).
     SessionConfig = 0x19, true;
+    /// A session configuration confirmed with a guard nonce (command to the controller).
+    ConfirmedSessionConfig = 0x1A, true;
+    /// Ask for a guard nonce (command to the controller).
+    GuardRequest = 0x1B, true;
+    /// A guard nonce (report by the controller).
+    GuardNonce = 0x1C, false;
     /// Supervised pressure announcement for a priming trial (command to the controller).
     SupervisedPressure = 0x20, true;
     /// Stage-1 target (8-D lights) for a new trial (command to the controller).
@@ -75,8 +81,24 @@ kinds! {
     TrialReport = 0x28, false;
     /// Error report (report).
     ErrorReport = 0x30, false;
+    /// Status, save or erase of the stored tables (command to the controller).
+    StoreCommand = 0x38, true;
+    /// The tables and their stored copy (report by the controller).
+    TablesStatus = 0x39, false;
+    /// Start writing tables in (command to the controller).
+    TableWriteBegin = 0x3A, true;
+    /// Verify and apply the tables written in (command to the controller).
+    TableWriteEnd = 0x3B, true;
     /// Heartbeat (report), `0x700 | node` as in CANopen.
     Heartbeat = 0x70, false;
+    /// Ask for a chunk of the tables (command to the controller; bulk, below heartbeats).
+    TableReadRequest = 0x78, true;
+    /// A chunk of the tables (report by the controller; bulk).
+    TableReadChunk = 0x79, false;
+    /// A chunk of tables written in (command to the controller; bulk).
+    TableWriteChunk = 0x7A, true;
+    /// Chunks received so far (report by the controller; bulk).
+    TableWriteAck = 0x7B, false;
 }
 
 impl MessageKind {
@@ -96,7 +118,18 @@ impl MessageKind {
             | K::Stage1Target
             | K::Stage2Target
             | K::GraspRequest
-            | K::TrialReport => matches!(node, NodeId::Controller),
+            | K::TrialReport
+            | K::ConfirmedSessionConfig
+            | K::GuardRequest
+            | K::GuardNonce
+            | K::StoreCommand
+            | K::TablesStatus
+            | K::TableWriteBegin
+            | K::TableWriteEnd
+            | K::TableReadRequest
+            | K::TableReadChunk
+            | K::TableWriteChunk
+            | K::TableWriteAck => matches!(node, NodeId::Controller),
             K::ModeChange | K::SessionConfig => {
                 matches!(node, NodeId::Controller | NodeId::Broadcast)
             }
@@ -158,18 +191,35 @@ mod tests {
                 valid += 1;
             }
         }
-        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 5 + mode and session
-        // config 2 x 2 + any-node 4 x 9
-        assert_eq!(valid, 10 + 2 + 2 + 5 + 2 * 2 + 4 * 9);
+        // servo kinds 2 x 5 + camera 2 + gripper 2 + controller-only 5 + guard 3 + tables 8
+        // + mode and session config 2 x 2 + any-node 4 x 9
+        assert_eq!(valid, 10 + 2 + 2 + 5 + 3 + 8 + 2 * 2 + 4 * 9);
         assert_eq!(CanId::from_raw(0x800), Err(Error::InvalidId(0x800)));
     }
 
+    /// Heartbeats lose arbitration to every kind but the bulk transfer of tables, which
+    /// yields to them: a table transfer never delays a heartbeat (and so never trips a
+    /// drive's supervision).
     #[test]
-    fn heartbeat_ids_are_canopen_like_and_lowest_priority() {
+    fn heartbeat_ids_are_canopen_like_and_lowest_priority_but_the_bulk_transfer() {
         let id = CanId::new(MessageKind::Heartbeat, NodeId::Controller).unwrap();
         assert_eq!(id.raw(), 0x701);
-        let max = MessageKind::ALL.iter().map(|k| k.code()).max().unwrap();
+        let bulk = [
+            MessageKind::TableReadRequest,
+            MessageKind::TableReadChunk,
+            MessageKind::TableWriteChunk,
+            MessageKind::TableWriteAck,
+        ];
+        let max = MessageKind::ALL
+            .iter()
+            .filter(|k| !bulk.contains(k))
+            .map(|k| k.code())
+            .max()
+            .unwrap();
         assert_eq!(max, MessageKind::Heartbeat.code());
+        assert!(bulk
+            .iter()
+            .all(|k| k.code() > MessageKind::Heartbeat.code()));
     }
 
     #[test]

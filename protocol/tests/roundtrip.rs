@@ -204,6 +204,17 @@ fn wire_lengths_are_exact_and_documented() {
         (MessageKind::TrialReport, 15),
         (MessageKind::ErrorReport, 6),
         (MessageKind::Heartbeat, 2),
+        (MessageKind::ConfirmedSessionConfig, 21),
+        (MessageKind::GuardRequest, 1),
+        (MessageKind::GuardNonce, 7),
+        (MessageKind::StoreCommand, 5),
+        (MessageKind::TablesStatus, 21),
+        (MessageKind::TableWriteBegin, 16),
+        (MessageKind::TableWriteEnd, 4),
+        (MessageKind::TableReadRequest, 2),
+        (MessageKind::TableReadChunk, 50),
+        (MessageKind::TableWriteChunk, 50),
+        (MessageKind::TableWriteAck, 6),
     ];
     assert_eq!(expected.len(), MessageKind::ALL.len());
     for &(k, n) in expected {
@@ -270,4 +281,41 @@ fn session_config_values_are_range_checked() {
     }
     let env = Envelope::new(NodeId::Controller, ok.into());
     assert!(encode(&env, BusMode::Fd, 0, &mut frames).is_ok());
+    // the confirmed form checks the same ranges
+    let bad = ConfirmedSessionConfig {
+        config: SessionConfig {
+            law: LAW_CODES,
+            ..ok
+        },
+        nonce: 7,
+    };
+    let env = Envelope::new(NodeId::Controller, bad.into());
+    assert_eq!(
+        encode(&env, BusMode::Classic, 0, &mut frames),
+        Err(Error::OutOfRange("law"))
+    );
+}
+
+/// A chunk's bytes cross the wire in order: the layout SPEC.md gives (index LE, then the
+/// 56 bytes), and a short slice is zero-padded.
+#[test]
+fn a_table_chunk_is_its_index_then_its_bytes() {
+    let bytes: Vec<u8> = (0..CHUNK as u8).collect();
+    let m = TableReadChunk {
+        index: 0x0102,
+        data: ChunkData::new(&bytes),
+    };
+    let env = Envelope::new(NodeId::Controller, m.into());
+    let mut frames = Frames::new();
+    encode(&env, BusMode::Fd, 0, &mut frames).unwrap();
+    let p = frames[0].payload();
+    assert_eq!(frames[0].raw_id(), 0x791);
+    assert_eq!(&p[..2], &[0x02, 0x01]);
+    assert_eq!(&p[2..50], &bytes[..]);
+    assert_eq!(m.data.bytes().to_vec(), bytes);
+    let short = ChunkData::new(&[7, 8, 9]).bytes();
+    assert_eq!(short[..3], [7, 8, 9]);
+    assert!(short[3..].iter().all(|&b| b == 0));
+    assert_eq!(chunk_count(48), 1);
+    assert_eq!(chunk_count(49), 2);
 }

@@ -23,6 +23,8 @@ ENUMS = {
     "Mode": ["Idle", "Priming", "Training", "Mature"],
     "NodeState": ["Booting", "Operational", "SafeState", "Fault"],
     "Bool": ["false", "true"],
+    "GuardOp": ["Reseed", "TableWrite", "StoreErase"],
+    "StoreOp": ["Status", "Save", "Erase"],
 }
 
 # (signal, start bit, length, enum or None, (min, max), unit)
@@ -47,9 +49,16 @@ KINDS = [
     ("GripperStatus", 0x0B, 1, [10], None, [BOOL("closed", 0)]),
     ("CaptureRequest", 0x10, 3, [8], "Controller", [U16("seq", 0), ENUM("what", 16, "CaptureKind")]),
     ("ModeChange", 0x18, 1, [1, BROADCAST], None, [ENUM("mode", 0, "Mode")]),
+    ("GuardRequest", 0x1B, 1, [1], "Runner", [ENUM("op", 0, "GuardOp")]),
+    ("GuardNonce", 0x1C, 7, [1], None, [
+        ENUM("op", 0, "GuardOp"), U32("nonce", 8), U16("window_ms", 40, unit="ms")]),
     ("GraspRequest", 0x23, 4, [1], "Runner", [U32("trial", 0)]),
     ("ErrorReport", 0x30, 6, ANY, None, [U16("code", 0), U32("detail", 16)]),
+    ("StoreCommand", 0x38, 5, [1], "Runner", [ENUM("op", 0, "StoreOp"), U32("nonce", 8)]),
+    ("TableWriteEnd", 0x3B, 4, [1], "Runner", [U32("image_crc", 0)]),
     ("Heartbeat", 0x70, 2, ANY, None, [U8("counter", 0), ENUM("state", 8, "NodeState")]),
+    ("TableReadRequest", 0x78, 2, [1], "Runner", [U16("index", 0)]),
+    ("TableWriteAck", 0x7B, 6, [1], None, [U16("next", 0), U32("image_crc", 16)]),
 ]
 
 

@@ -19,13 +19,17 @@ pub const MESSAGE_BUDGET: usize = 62;
 pub const LONG_PAYLOAD_MAX: usize = crate::frame::FD_MAX - 4;
 
 mod camera;
+mod guard;
 mod servo;
 mod session;
+mod tables;
 mod trial;
 
 pub use camera::*;
+pub use guard::*;
 pub use servo::*;
 pub use session::*;
+pub use tables::*;
 pub use trial::*;
 
 fn finite(x: f32, field: &'static str) -> Result<()> {
@@ -50,6 +54,27 @@ fn raw12(raw: u16) -> Result<()> {
     } else {
         Err(Error::OutOfRange("raw"))
     }
+}
+
+fn session_config(m: &SessionConfig) -> Result<()> {
+    if m.preset >= PRESET_CODES {
+        return Err(Error::OutOfRange("preset"));
+    }
+    if m.ablation >= ABLATION_CODES {
+        return Err(Error::OutOfRange("ablation"));
+    }
+    if m.law >= LAW_CODES {
+        return Err(Error::OutOfRange("law"));
+    }
+    for (side, f) in [
+        (m.image_width, "image_width"),
+        (m.image_height, "image_height"),
+    ] {
+        if side == 0 || side > IMAGE_SIDE_MAX {
+            return Err(Error::OutOfRange(f));
+        }
+    }
+    Ok(())
 }
 
 macro_rules! messages {
@@ -138,13 +163,24 @@ messages! {
     Observation = 39;
     ModeChange = 1;
     SessionConfig = 17;
+    ConfirmedSessionConfig = 21;
+    GuardRequest = 1;
+    GuardNonce = 7;
     SupervisedPressure = 24;
     Stage1Target = 39;
     Stage2Target = 23;
     GraspRequest = 4;
     TrialReport = 15;
     ErrorReport = 6;
+    StoreCommand = 5;
+    TablesStatus = 21;
+    TableWriteBegin = 16;
+    TableWriteEnd = 4;
     Heartbeat = 2;
+    TableReadRequest = 2;
+    TableReadChunk = 50;
+    TableWriteChunk = 50;
+    TableWriteAck = 6;
 }
 
 // The tagged enum encoding also fits the budget.
@@ -198,26 +234,8 @@ impl Message {
                 }
                 Ok(())
             }
-            Message::SessionConfig(m) => {
-                if m.preset >= PRESET_CODES {
-                    return Err(Error::OutOfRange("preset"));
-                }
-                if m.ablation >= ABLATION_CODES {
-                    return Err(Error::OutOfRange("ablation"));
-                }
-                if m.law >= LAW_CODES {
-                    return Err(Error::OutOfRange("law"));
-                }
-                for (side, f) in [
-                    (m.image_width, "image_width"),
-                    (m.image_height, "image_height"),
-                ] {
-                    if side == 0 || side > IMAGE_SIDE_MAX {
-                        return Err(Error::OutOfRange(f));
-                    }
-                }
-                Ok(())
-            }
+            Message::SessionConfig(m) => session_config(m),
+            Message::ConfirmedSessionConfig(m) => session_config(&m.config),
             Message::Emergency(_)
             | Message::GripperCommand(_)
             | Message::GripperStatus(_)
@@ -225,7 +243,17 @@ impl Message {
             | Message::ModeChange(_)
             | Message::GraspRequest(_)
             | Message::ErrorReport(_)
-            | Message::Heartbeat(_) => Ok(()),
+            | Message::Heartbeat(_)
+            | Message::GuardRequest(_)
+            | Message::GuardNonce(_)
+            | Message::StoreCommand(_)
+            | Message::TablesStatus(_)
+            | Message::TableWriteBegin(_)
+            | Message::TableWriteEnd(_)
+            | Message::TableReadRequest(_)
+            | Message::TableReadChunk(_)
+            | Message::TableWriteChunk(_)
+            | Message::TableWriteAck(_) => Ok(()),
         }
     }
 }

@@ -112,6 +112,31 @@ fn single_message(kind: MessageKind, r: &mut Lcg, round: u64) -> Message {
             ][pick(r, 4) as usize],
         }
         .into(),
+        MessageKind::GuardRequest => GuardRequest {
+            op: [GuardOp::Reseed, GuardOp::TableWrite, GuardOp::StoreErase][pick(r, 3) as usize],
+        }
+        .into(),
+        MessageKind::GuardNonce => GuardNonce {
+            op: [GuardOp::Reseed, GuardOp::TableWrite, GuardOp::StoreErase][pick(r, 3) as usize],
+            nonce: r.next() as u32,
+            window_ms: u16v(r),
+        }
+        .into(),
+        MessageKind::StoreCommand => StoreCommand {
+            op: [StoreOp::Status, StoreOp::Save, StoreOp::Erase][pick(r, 3) as usize],
+            nonce: r.next() as u32,
+        }
+        .into(),
+        MessageKind::TableWriteEnd => TableWriteEnd {
+            image_crc: r.next() as u32,
+        }
+        .into(),
+        MessageKind::TableReadRequest => TableReadRequest { index: u16v(r) }.into(),
+        MessageKind::TableWriteAck => TableWriteAck {
+            next: u16v(r),
+            image_crc: r.next() as u32,
+        }
+        .into(),
         other => panic!("{other:?} is not a single-frame kind"),
     }
 }
@@ -176,6 +201,18 @@ pub fn signals(msg: &Message) -> Vec<(&'static str, u64)> {
         Message::GraspRequest(m) => vec![("trial", m.trial as u64)],
         Message::ErrorReport(m) => vec![("code", m.code as u64), ("detail", m.detail as u64)],
         Message::Heartbeat(m) => vec![("counter", m.counter as u64), ("state", m.state as u64)],
+        Message::GuardRequest(m) => vec![("op", m.op as u64)],
+        Message::GuardNonce(m) => vec![
+            ("op", m.op as u64),
+            ("nonce", m.nonce as u64),
+            ("window_ms", m.window_ms as u64),
+        ],
+        Message::StoreCommand(m) => vec![("op", m.op as u64), ("nonce", m.nonce as u64)],
+        Message::TableWriteEnd(m) => vec![("image_crc", m.image_crc as u64)],
+        Message::TableReadRequest(m) => vec![("index", m.index as u64)],
+        Message::TableWriteAck(m) => {
+            vec![("next", m.next as u64), ("image_crc", m.image_crc as u64)]
+        }
         _ => vec![],
     }
 }

@@ -103,8 +103,118 @@ fn observation() -> impl Strategy<Value = Observation> {
         })
 }
 
-/// Any valid envelope of any kind, with a node the kind allows.
+/// Any valid envelope of any kind, with a node the kind allows (each kind about equally
+/// often).
 pub fn envelope() -> impl Strategy<Value = Envelope> {
+    prop_oneof![17 => first_kinds(), 11 => table_kinds()]
+}
+
+fn session_config() -> impl Strategy<Value = SessionConfig> {
+    (
+        any::<u64>(),
+        0..PRESET_CODES,
+        0..ABLATION_CODES,
+        1..=IMAGE_SIDE_MAX,
+        1..=IMAGE_SIDE_MAX,
+        any::<bool>(),
+        (any::<bool>(), 0..LAW_CODES),
+    )
+        .prop_map(
+            |(seed, preset, ablation, image_width, image_height, fd, (keep_tables, law))| {
+                SessionConfig {
+                    seed,
+                    preset,
+                    ablation,
+                    image_width,
+                    image_height,
+                    fd,
+                    keep_tables,
+                    law,
+                }
+            },
+        )
+}
+
+fn guard_op() -> impl Strategy<Value = GuardOp> {
+    prop_oneof![
+        Just(GuardOp::Reseed),
+        Just(GuardOp::TableWrite),
+        Just(GuardOp::StoreErase)
+    ]
+}
+
+fn chunk() -> impl Strategy<Value = ChunkData> {
+    proptest::collection::vec(any::<u8>(), CHUNK).prop_map(|b| ChunkData::new(&b))
+}
+
+/// The guard's and the tables' kinds.
+fn table_kinds() -> impl Strategy<Value = Envelope> {
+    let ctrl = |m: Message| Envelope::new(NodeId::Controller, m);
+    prop_oneof![
+        (session_config(), any::<u32>())
+            .prop_map(move |(config, nonce)| ctrl(ConfirmedSessionConfig { config, nonce }.into())),
+        guard_op().prop_map(move |op| ctrl(GuardRequest { op }.into())),
+        (guard_op(), any::<u32>(), any::<u16>()).prop_map(move |(op, nonce, window_ms)| ctrl(
+            GuardNonce {
+                op,
+                nonce,
+                window_ms
+            }
+            .into()
+        )),
+        (
+            prop_oneof![
+                Just(StoreOp::Status),
+                Just(StoreOp::Save),
+                Just(StoreOp::Erase)
+            ],
+            any::<u32>()
+        )
+            .prop_map(move |(op, nonce)| ctrl(StoreCommand { op, nonce }.into())),
+        (
+            prop_oneof![
+                Just(TablesEvent::Status),
+                Just(TablesEvent::Restored),
+                Just(TablesEvent::NotRestored),
+                Just(TablesEvent::Saved),
+                Just(TablesEvent::Applied),
+                Just(TablesEvent::Erased)
+            ],
+            any::<[u32; 5]>()
+        )
+            .prop_map(move |(event, v)| ctrl(
+                TablesStatus {
+                    event,
+                    image_len: v[0],
+                    fingerprint: v[1],
+                    steps1: v[2],
+                    steps2: v[3],
+                    stored_sequence: v[4],
+                }
+                .into()
+            )),
+        any::<[u32; 4]>().prop_map(move |v| ctrl(
+            TableWriteBegin {
+                nonce: v[0],
+                image_len: v[1],
+                image_crc: v[2],
+                fingerprint: v[3]
+            }
+            .into()
+        )),
+        any::<u32>().prop_map(move |image_crc| ctrl(TableWriteEnd { image_crc }.into())),
+        any::<u16>().prop_map(move |index| ctrl(TableReadRequest { index }.into())),
+        (any::<u16>(), chunk())
+            .prop_map(move |(index, data)| ctrl(TableReadChunk { index, data }.into())),
+        (any::<u16>(), chunk())
+            .prop_map(move |(index, data)| ctrl(TableWriteChunk { index, data }.into())),
+        (any::<u16>(), any::<u32>())
+            .prop_map(move |(next, image_crc)| ctrl(TableWriteAck { next, image_crc }.into())),
+    ]
+}
+
+/// The kinds of the first protocol versions.
+fn first_kinds() -> impl Strategy<Value = Envelope> {
     let raw = 0u16..=4095;
     prop_oneof![
         (servo(), any::<u16>(), raw.clone())
@@ -211,32 +321,9 @@ pub fn envelope() -> impl Strategy<Value = Envelope> {
             .prop_map(|(n, mode)| Envelope::new(n, ModeChange { mode }.into())),
         (
             prop_oneof![Just(NodeId::Controller), Just(NodeId::Broadcast)],
-            any::<u64>(),
-            0..PRESET_CODES,
-            0..ABLATION_CODES,
-            1..=IMAGE_SIDE_MAX,
-            1..=IMAGE_SIDE_MAX,
-            any::<bool>(),
-            (any::<bool>(), 0..LAW_CODES)
+            session_config()
         )
-            .prop_map(
-                |(n, seed, preset, ablation, image_width, image_height, fd, (keep_tables, law))| {
-                    Envelope::new(
-                        n,
-                        SessionConfig {
-                            seed,
-                            preset,
-                            ablation,
-                            image_width,
-                            image_height,
-                            fd,
-                            keep_tables,
-                            law,
-                        }
-                        .into(),
-                    )
-                }
-            ),
+            .prop_map(|(n, c)| Envelope::new(n, c.into())),
         (any_node(), any::<u16>(), any::<u32>())
             .prop_map(|(n, code, detail)| Envelope::new(n, ErrorReport { code, detail }.into())),
         (any_node(), emergency_reason())

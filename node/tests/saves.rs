@@ -1,0 +1,196 @@
+//! The node and the stored copy: the announcement at boot, saves on a command, on entering
+//! `Mature` and every N learning steps, never during a trial that learns.
+
+mod common;
+
+use common::*;
+use trn_controller::persist::TableStore;
+use trn_node::{codes, ControllerNode, NodeConfig, Outbox};
+use trn_protocol::{
+    Message, Mode, ModeChange, Stage1Target, StoreCommand, StoreOp, TablesEvent, TablesStatus,
+};
+
+fn statuses(out: &[trn_protocol::Envelope]) -> Vec<TablesStatus> {
+    out.iter()
+        .filter_map(|e| match e.msg {
+            Message::TablesStatus(s) => Some(s),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Polls the node until it announces `event` (at most `polls` times); the status.
+fn poll_until(
+    n: &mut ControllerNode,
+    b: &mut Board,
+    now: &mut u32,
+    event: TablesEvent,
+    polls: usize,
+) -> Option<TablesStatus> {
+    for _ in 0..polls {
+        *now += 10;
+        let mut out = Outbox::new();
+        n.poll(b, *now, &mut out);
+        if let Some(s) = statuses(&out).into_iter().find(|s| s.event == event) {
+            return Some(s);
+        }
+    }
+    None
+}
+
+/// Runs a learning stage-1 trial to its end with the plant answering.
+fn learning_trial(n: &mut ControllerNode, b: &mut Board, trial: u32, now: &mut u32) {
+    let t = Stage1Target {
+        trial,
+        learn: true,
+        grasp: false,
+        fine_moves: 1,
+        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
+    };
+    let mut plant = Plant::new();
+    let mut out = send(n, b, t.into(), *now);
+    for _ in 0..20 {
+        let answers = plant.answer(&out);
+        out.clear();
+        for a in &answers {
+            n.on_message(b, a, *now, &mut out);
+        }
+        // a save may not start while it learns
+        n.poll(b, *now, &mut out);
+        if n.trial().is_none() {
+            return;
+        }
+    }
+    panic!("the trial did not end");
+}
+
+#[test]
+fn the_boot_restore_is_announced_and_saves_follow_the_policy() {
+    let (mut n, mut b) = booted_board(51, 2);
+    let mut now = 0;
+    let s = poll_until(&mut n, &mut b, &mut now, TablesEvent::Restored, 1).unwrap();
+    assert_eq!(
+        (s.steps1, s.stored_sequence),
+        (b.ctrl.stage1().learning_step(), 1)
+    );
+    assert_eq!(s.fingerprint, project().fingerprint());
+    // nothing changed: a save command is answered with the stored copy at once
+    let out = send(
+        &mut n,
+        &mut b,
+        StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        }
+        .into(),
+        now,
+    );
+    assert_eq!(statuses(&out)[0].event, TablesEvent::Saved);
+    assert_eq!(statuses(&out)[0].stored_sequence, 1);
+    // a session keeping the tables, a trial that learns, then Mature: saved
+    send(&mut n, &mut b, session(1, true).into(), now);
+    send(
+        &mut n,
+        &mut b,
+        ModeChange {
+            mode: Mode::Training,
+        }
+        .into(),
+        now,
+    );
+    learning_trial(&mut n, &mut b, 1, &mut now);
+    assert_eq!(
+        b.store.stored().unwrap().sequence,
+        1,
+        "no save during training"
+    );
+    send(
+        &mut n,
+        &mut b,
+        ModeChange { mode: Mode::Mature }.into(),
+        now,
+    );
+    let s = poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 200).unwrap();
+    assert_eq!(s.stored_sequence, 2);
+    assert_eq!(s.steps1, b.ctrl.stage1().learning_step());
+    let mut back = learned(0, 0);
+    b.store.restore(&mut back, None).unwrap();
+    assert!(same(&back, &b.ctrl), "the stored copy is the tables");
+}
+
+#[test]
+fn every_n_learning_steps_a_save_between_trials_and_a_learning_trial_abandons_one() {
+    let mut b = Board {
+        ctrl: learned(52, 0),
+        store: store(),
+    };
+    let mut n = ControllerNode::new(NodeConfig {
+        save_every_steps: 2,
+        ..NodeConfig::DEFAULT
+    });
+    let mut now = 0;
+    send(&mut n, &mut b, session(3, false).into(), now);
+    send(
+        &mut n,
+        &mut b,
+        ModeChange {
+            mode: Mode::Training,
+        }
+        .into(),
+        now,
+    );
+    learning_trial(&mut n, &mut b, 1, &mut now);
+    // one step: not yet
+    assert!(poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 5).is_none());
+    learning_trial(&mut n, &mut b, 2, &mut now);
+    // two: a save begins between trials; a trial that learns starts before it ends
+    let mut out = Outbox::new();
+    n.poll(&mut b, now + 10, &mut out);
+    assert!(b.store.saving(), "a save began");
+    learning_trial(&mut n, &mut b, 3, &mut now);
+    assert!(
+        b.store.stored().is_none(),
+        "the save was abandoned when the trial began"
+    );
+    let s = poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 200).unwrap();
+    assert_eq!(s.steps1, 3, "saved again, after the trial, with its step");
+    let mut back = learned(0, 0);
+    b.store.restore(&mut back, None).unwrap();
+    assert!(same(&back, &b.ctrl));
+}
+
+#[test]
+fn a_node_without_a_store_says_so() {
+    let mut c = learned(53, 1);
+    let mut n = node();
+    let out = send(
+        &mut n,
+        &mut c,
+        StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        }
+        .into(),
+        0,
+    );
+    assert_eq!(
+        errors(&out),
+        vec![(
+            codes::TABLES_FAILED,
+            codes::table_op::SAVE << 8 | codes::table_reason::NO_STORE
+        )]
+    );
+    let out = send(
+        &mut n,
+        &mut c,
+        StoreCommand {
+            op: StoreOp::Status,
+            nonce: 0,
+        }
+        .into(),
+        0,
+    );
+    let s = statuses(&out)[0];
+    assert_eq!((s.stored_sequence, s.steps1), (0, 1));
+    assert_eq!(s.image_len as usize, image(&c).len());
+}

@@ -1,0 +1,676 @@
+//! [`FlashStore`]: two slots of a NorFlash region, each a header (the commit record, written
+//! last) and a checkpoint image; saving as a job of small steps, staging an incoming image,
+//! restoring at boot, erasing.
+
+use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
+use trn_controller::checkpoint::{self, ImageCursor, ImageSource, Provenance, SourceError};
+use trn_controller::persist::{
+    ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,
+};
+use trn_controller::{Controller, Error as CkptError};
+
+use crate::slot::{Decoded, SlotHeader, FORMAT, HEADER_LEN};
+
+/// Bytes programmed by one flash write (a multiple of every supported write size).
+const PROGRAM: usize = 256;
+/// Bytes read at a time when the flash reads in units larger than a byte.
+const READ_PIECE: usize = 64;
+/// Flash error code: the image read back differs from what was programmed.
+pub const READ_BACK_DIFFERS: u8 = 0xFE;
+
+/// The code of a flash error on the wire (`NorFlashErrorKind`: 1 not aligned, 2 out of
+/// bounds, 3 other).
+fn code<E: NorFlashError>(e: E) -> u8 {
+    match e.kind() {
+        NorFlashErrorKind::NotAligned => 1,
+        NorFlashErrorKind::OutOfBounds => 2,
+        _ => 3,
+    }
+}
+
+/// Why a region cannot hold the store.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LayoutError {
+    /// The region's start or slot size is not a multiple of the erase size.
+    NotAligned,
+    /// A slot is smaller than a header and the largest checkpoint (bytes needed).
+    TooSmall {
+        /// The smallest slot size that holds them, rounded up to the erase size.
+        needed: u32,
+    },
+    /// The two slots reach beyond the flash.
+    OutOfBounds,
+    /// The flash's write or read size is not one this store handles (a power of two, at
+    /// most 256 bytes for writes and 64 for reads).
+    UnitSize,
+}
+
+/// Why nothing was restored at boot. The controller is unchanged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RestoreError {
+    /// Both slots are erased: nothing was ever saved (or the copies were erased).
+    NothingStored,
+    /// No slot holds a complete, intact copy (torn, bit flips, foreign data).
+    AllCorrupt,
+    /// The newest copy is in a store format this build does not read.
+    Format {
+        /// The format version found.
+        found: u16,
+    },
+    /// The newest copy was learned under another configuration than the one required.
+    Fingerprint {
+        /// The copy's configuration fingerprint.
+        stored: u32,
+        /// The fingerprint required.
+        expected: u32,
+    },
+    /// The newest copy is intact but not a checkpoint this build restores (another format
+    /// version, other network shapes, values beyond what this build's tables hold).
+    Image(CkptError),
+    /// A trial is running.
+    Busy,
+    /// The flash refused a read.
+    Flash(u8),
+}
+
+/// The valid slot headers with their slots, newest first.
+type Newest = [Option<(u8, SlotHeader)>; 2];
+
+/// A job in progress.
+#[derive(Debug, Clone)]
+enum Job {
+    None,
+    /// A save into `slot`: erasing, then programming from the cursor, then the read-back
+    /// and the commit.
+    Save {
+        slot: u8,
+        sequence: u32,
+        cursor: ImageCursor,
+        erased: u32,
+        programmed: u32,
+    },
+    /// An incoming image staged into `slot`; `pending` holds the bytes of a write unit not
+    /// yet complete.
+    Stage {
+        slot: u8,
+        sequence: u32,
+        len: u32,
+        received: u32,
+        erased: u32,
+        pending: [u8; PROGRAM],
+        pending_len: usize,
+    },
+}
+
+/// The learned tables in two slots of a NorFlash region (see the crate documentation).
+#[derive(Debug)]
+pub struct FlashStore<F> {
+    flash: F,
+    base: u32,
+    slot_size: u32,
+    step_bytes: u32,
+    job: Job,
+}
+
+/// A slot's image as a checkpoint source.
+struct SlotImage<'a, F> {
+    flash: &'a mut F,
+    at: u32,
+    len: usize,
+}
+
+impl<F: NorFlash> ImageSource for SlotImage<'_, F> {
+    type Error = F::Error;
+
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), F::Error> {
+        read_unaligned(self.flash, self.at + offset as u32, buf)
+    }
+}
+
+/// Reads `buf.len()` bytes at `at` whatever the flash's read size.
+fn read_unaligned<F: NorFlash>(flash: &mut F, at: u32, buf: &mut [u8]) -> Result<(), F::Error> {
+    let unit = F::READ_SIZE as u32;
+    if unit == 1 {
+        return flash.read(at, buf);
+    }
+    let mut done = 0usize;
+    while done < buf.len() {
+        let pos = at + done as u32;
+        let start = pos - pos % unit;
+        let mut piece = [0u8; READ_PIECE];
+        let want = (pos - start) as usize + (buf.len() - done);
+        let n = want.min(READ_PIECE).div_ceil(unit as usize) * unit as usize;
+        flash.read(start, &mut piece[..n])?;
+        let from = (pos - start) as usize;
+        let take = (n - from).min(buf.len() - done);
+        buf[done..done + take].copy_from_slice(&piece[from..from + take]);
+        done += take;
+    }
+    Ok(())
+}
+
+/// True for the refusals of a damaged image (the previous copy is taken instead); false for
+/// an intact image this build does not take.
+fn is_damage(e: &CkptError) -> bool {
+    matches!(
+        e,
+        CkptError::CheckpointLength { .. }
+            | CkptError::CheckpointMagic
+            | CkptError::CheckpointCrc { .. }
+            | CkptError::CheckpointChanged
+    )
+}
+
+impl<F: NorFlash> FlashStore<F> {
+    /// Where the image starts in a slot: after the header, at a write-unit boundary.
+    const IMAGE_AT: u32 = if F::WRITE_SIZE > 64 {
+        F::WRITE_SIZE as u32
+    } else {
+        64
+    };
+
+    /// The smallest slot size that holds a header and the largest checkpoint on this flash.
+    pub fn slot_size_needed() -> u32 {
+        let needed = Self::IMAGE_AT + checkpoint::MAX_SIZE as u32;
+        needed.div_ceil(F::ERASE_SIZE as u32) * F::ERASE_SIZE as u32
+    }
+
+    /// A store in the two slots `base..base + slot_size` and `base + slot_size..base + 2 *
+    /// slot_size` of `flash`. Nothing is read or written until asked.
+    pub fn new(flash: F, base: u32, slot_size: u32) -> Result<Self, LayoutError> {
+        let (w, r, e) = (F::WRITE_SIZE, F::READ_SIZE, F::ERASE_SIZE as u32);
+        if !w.is_power_of_two() || w > PROGRAM || !r.is_power_of_two() || r > READ_PIECE {
+            return Err(LayoutError::UnitSize);
+        }
+        if base % e != 0 || slot_size % e != 0 {
+            return Err(LayoutError::NotAligned);
+        }
+        if slot_size < Self::slot_size_needed() {
+            return Err(LayoutError::TooSmall {
+                needed: Self::slot_size_needed(),
+            });
+        }
+        let end = base as u64 + 2 * slot_size as u64;
+        if end > flash.capacity() as u64 {
+            return Err(LayoutError::OutOfBounds);
+        }
+        Ok(FlashStore {
+            flash,
+            base,
+            slot_size,
+            step_bytes: 4096,
+            job: Job::None,
+        })
+    }
+
+    /// Sets how many bytes one save step programs (4 KiB by default): the longest a step
+    /// keeps the node's loop from the bus is one erase or this many bytes programmed.
+    pub fn with_step_bytes(mut self, bytes: u32) -> Self {
+        self.step_bytes = bytes.max(PROGRAM as u32);
+        self
+    }
+
+    /// The flash, to inspect it.
+    pub fn flash(&self) -> &F {
+        &self.flash
+    }
+
+    /// The flash back.
+    pub fn into_flash(self) -> F {
+        self.flash
+    }
+
+    fn slot_at(&self, slot: u8) -> u32 {
+        self.base + slot as u32 * self.slot_size
+    }
+
+    fn capacity(&self) -> u32 {
+        self.slot_size - Self::IMAGE_AT
+    }
+
+    fn header(&mut self, slot: u8) -> Result<Decoded, F::Error> {
+        let mut b = [0u8; HEADER_LEN];
+        let at = self.slot_at(slot);
+        read_unaligned(&mut self.flash, at, &mut b)?;
+        Ok(SlotHeader::decode(&b))
+    }
+
+    /// The valid headers of both slots, newest first.
+    fn by_sequence(&mut self) -> Result<([Decoded; 2], Newest), F::Error> {
+        let decoded = [self.header(0)?, self.header(1)?];
+        let mut valid = [None, None];
+        for (slot, d) in decoded.iter().enumerate() {
+            if let Decoded::Valid(h) = d {
+                valid[slot] = Some((slot as u8, *h));
+            }
+        }
+        if let [Some((_, a)), Some((_, b))] = valid {
+            if b.sequence > a.sequence {
+                valid.swap(0, 1);
+            }
+        } else if valid[0].is_none() {
+            valid.swap(0, 1);
+        }
+        Ok((decoded, valid))
+    }
+
+    fn image<'a>(&'a mut self, slot: u8, len: u32) -> SlotImage<'a, F> {
+        let at = self.slot_at(slot) + Self::IMAGE_AT;
+        SlotImage {
+            flash: &mut self.flash,
+            at,
+            len: len as usize,
+        }
+    }
+
+    /// True when the image of a valid header is intact: the CRC it names is its last four
+    /// bytes and the image checks.
+    fn intact(&mut self, slot: u8, h: &SlotHeader) -> Result<bool, F::Error> {
+        if h.len < 8 || h.len > self.capacity() {
+            return Ok(false);
+        }
+        let mut img = self.image(slot, h.len);
+        let mut crc = [0u8; 4];
+        img.read(h.len as usize - 4, &mut crc)?;
+        if u32::from_le_bytes(crc) != h.image_crc {
+            return Ok(false);
+        }
+        match checkpoint::verify_from(&mut img) {
+            Ok(_) => Ok(true),
+            Err(SourceError::Read(e)) => Err(e),
+            Err(SourceError::Checkpoint(e)) => Ok(!is_damage(&e)),
+        }
+    }
+
+    /// Where the next copy goes and its sequence number: the slot that does not hold the
+    /// copy to keep (the newest intact one, or one this build cannot judge), one above the
+    /// highest sequence number.
+    fn next_slot(&mut self) -> Result<(u8, u32), F::Error> {
+        let (_, valid) = self.by_sequence()?;
+        let sequence = valid[0].map_or(0, |(_, h)| h.sequence).wrapping_add(1);
+        for (slot, h) in valid.into_iter().flatten() {
+            if h.format != FORMAT || self.intact(slot, &h)? {
+                return Ok((1 - slot, sequence));
+            }
+        }
+        Ok((0, sequence))
+    }
+
+    /// Restores the newest intact copy into `ctrl` (at boot). With `expected`, a copy learned
+    /// under another configuration fingerprint is refused. A damaged newest copy falls back
+    /// to the previous one; an intact one this build does not take is refused, never
+    /// replaced by an older one.
+    pub fn restore(
+        &mut self,
+        ctrl: &mut Controller,
+        expected: Option<u32>,
+    ) -> Result<StoredCopy, RestoreError> {
+        if ctrl.busy() {
+            return Err(RestoreError::Busy);
+        }
+        let flash = |e: F::Error| RestoreError::Flash(code(e));
+        let (decoded, valid) = self.by_sequence().map_err(flash)?;
+        if valid[0].is_none() {
+            return Err(if decoded.iter().all(|d| *d == Decoded::Erased) {
+                RestoreError::NothingStored
+            } else {
+                RestoreError::AllCorrupt
+            });
+        }
+        for (slot, h) in valid.into_iter().flatten() {
+            if h.format != FORMAT {
+                return Err(RestoreError::Format { found: h.format });
+            }
+            if let Some(expected) = expected.filter(|e| *e != h.fingerprint) {
+                return Err(RestoreError::Fingerprint {
+                    stored: h.fingerprint,
+                    expected,
+                });
+            }
+            if h.len < 8 || h.len > self.capacity() {
+                continue;
+            }
+            let mut img = self.image(slot, h.len);
+            let mut crc = [0u8; 4];
+            img.read(h.len as usize - 4, &mut crc).map_err(flash)?;
+            if u32::from_le_bytes(crc) != h.image_crc {
+                continue;
+            }
+            match checkpoint::restore_from(ctrl, &mut img) {
+                Ok(header) => return Ok(StoredCopy::of(h.sequence, &header, h.len)),
+                Err(SourceError::Read(e)) => return Err(flash(e)),
+                Err(SourceError::Checkpoint(e)) if is_damage(&e) => continue,
+                Err(SourceError::Checkpoint(e)) => return Err(RestoreError::Image(e)),
+            }
+        }
+        Err(RestoreError::AllCorrupt)
+    }
+
+    /// Erases the slot's pages from `*erased` on, one page, if `upto` bytes of it are not
+    /// erased yet; true when it erased one.
+    fn erase_towards(&mut self, slot: u8, erased: &mut u32, upto: u32) -> Result<bool, F::Error> {
+        if *erased >= upto {
+            return Ok(false);
+        }
+        let at = self.slot_at(slot) + *erased;
+        self.flash.erase(at, at + F::ERASE_SIZE as u32)?;
+        *erased += F::ERASE_SIZE as u32;
+        Ok(true)
+    }
+
+    /// Programs `bytes` (padded with 0xFF to whole write units) at `offset` of the slot's
+    /// image, erasing the pages it reaches first.
+    fn program(
+        &mut self,
+        slot: u8,
+        erased: &mut u32,
+        offset: u32,
+        bytes: &[u8],
+    ) -> Result<(), F::Error> {
+        let unit = F::WRITE_SIZE;
+        let padded = bytes.len().div_ceil(unit) * unit;
+        let end = Self::IMAGE_AT + offset + padded as u32;
+        while self.erase_towards(slot, erased, end)? {}
+        let mut buf = [0xFFu8; PROGRAM];
+        buf[..bytes.len()].copy_from_slice(bytes);
+        let at = self.slot_at(slot) + Self::IMAGE_AT + offset;
+        self.flash.write(at, &buf[..padded])
+    }
+
+    /// Programs a slot's header: the commit record that makes its image a stored copy.
+    fn commit(&mut self, slot: u8, h: &SlotHeader) -> Result<(), F::Error> {
+        let unit = F::WRITE_SIZE;
+        let mut buf = [0xFFu8; PROGRAM];
+        buf[..HEADER_LEN].copy_from_slice(&h.encode());
+        let at = self.slot_at(slot);
+        self.flash
+            .write(at, &buf[..HEADER_LEN.div_ceil(unit) * unit])
+    }
+
+    /// The header of a verified image in `slot`.
+    fn header_for(sequence: u32, header: &checkpoint::Header, len: u32, crc: u32) -> SlotHeader {
+        SlotHeader {
+            format: FORMAT,
+            provenance: (header.provenance.preset, header.provenance.ablation),
+            sequence,
+            len,
+            fingerprint: header.config_fingerprint,
+            image_crc: crc,
+            steps: (header.t1, header.t2),
+        }
+    }
+
+    /// Reads a programmed image back: its header and CRC when it checks.
+    fn read_back(&mut self, slot: u8, len: u32) -> Result<(checkpoint::Header, u32), SaveError> {
+        let mut img = self.image(slot, len);
+        let header = match checkpoint::verify_from(&mut img) {
+            Ok(h) => h,
+            Err(SourceError::Read(e)) => return Err(SaveError::Flash(code(e))),
+            Err(SourceError::Checkpoint(_)) => return Err(SaveError::Flash(READ_BACK_DIFFERS)),
+        };
+        let mut crc = [0u8; 4];
+        img.read(len as usize - 4, &mut crc)
+            .map_err(|e| SaveError::Flash(code(e)))?;
+        Ok((header, u32::from_le_bytes(crc)))
+    }
+
+    fn save_step_inner(&mut self, ctrl: &Controller) -> Result<Option<StoredCopy>, SaveError> {
+        let Job::Save {
+            slot,
+            sequence,
+            mut cursor,
+            mut erased,
+            mut programmed,
+        } = core::mem::replace(&mut self.job, Job::None)
+        else {
+            return Err(SaveError::NotStarted);
+        };
+        let flash = |e: F::Error| SaveError::Flash(code(e));
+        let len = cursor.len() as u32;
+        // erase the slot's pages from its first (the header's) on, one a step; then program
+        // up to `step_bytes` a step
+        let mut progressed = self
+            .erase_towards(slot, &mut erased, Self::IMAGE_AT + len)
+            .map_err(flash)?;
+        let mut budget = if progressed { 0 } else { self.step_bytes };
+        while budget > 0 && !cursor.is_done() {
+            let mut piece = [0u8; PROGRAM];
+            // the cursor's only refusal: the tables changed since the save began
+            let n = cursor
+                .read(ctrl, &mut piece)
+                .map_err(|_| SaveError::Changed)?;
+            self.program(slot, &mut erased, programmed, &piece[..n])
+                .map_err(flash)?;
+            programmed += n as u32;
+            budget = budget.saturating_sub(PROGRAM as u32);
+            progressed = true;
+        }
+        if progressed {
+            self.job = Job::Save {
+                slot,
+                sequence,
+                cursor,
+                erased,
+                programmed,
+            };
+            return Ok(None);
+        }
+        let (header, crc) = self.read_back(slot, len)?;
+        if header != *cursor.header() {
+            return Err(SaveError::Flash(READ_BACK_DIFFERS));
+        }
+        let h = Self::header_for(sequence, &header, len, crc);
+        self.commit(slot, &h).map_err(flash)?;
+        Ok(Some(StoredCopy::of(sequence, &header, len)))
+    }
+
+    fn stage_write_inner(&mut self, offset: u32, bytes: &[u8]) -> Result<(), StageError> {
+        let flash = |e: F::Error| StageError::Flash(code(e));
+        let Job::Stage {
+            slot,
+            len,
+            received,
+            erased,
+            pending,
+            pending_len,
+            ..
+        } = &mut self.job
+        else {
+            return Err(StageError::NotStarted);
+        };
+        if offset != *received {
+            return Err(StageError::OutOfOrder);
+        }
+        if *received as u64 + bytes.len() as u64 > *len as u64 {
+            return Err(StageError::TooLarge);
+        }
+        let (slot, len) = (*slot, *len);
+        let mut erased_now = *erased;
+        let mut buf = *pending;
+        let mut held = *pending_len;
+        // bytes programmed so far: everything received but the pending tail
+        let mut at = *received - held as u32;
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let take = rest.len().min(PROGRAM - held);
+            buf[held..held + take].copy_from_slice(&rest[..take]);
+            held += take;
+            rest = &rest[take..];
+            // a full buffer (whole write units), or the image's last bytes (padded)
+            let last = at + held as u32 == len;
+            let n = if last { held } else { PROGRAM };
+            if held == PROGRAM || last {
+                self.program(slot, &mut erased_now, at, &buf[..n])
+                    .map_err(flash)?;
+                buf.copy_within(n..held, 0);
+                held -= n;
+                at += n as u32;
+            }
+        }
+        if let Job::Stage {
+            received,
+            erased,
+            pending,
+            pending_len,
+            ..
+        } = &mut self.job
+        {
+            *received += bytes.len() as u32;
+            *erased = erased_now;
+            *pending = buf;
+            *pending_len = held;
+        }
+        Ok(())
+    }
+
+    fn stage_apply_inner(
+        &mut self,
+        ctrl: &mut Controller,
+        expected: Expected,
+    ) -> Result<StoredCopy, ApplyError> {
+        let Job::Stage {
+            slot,
+            sequence,
+            len,
+            received,
+            ..
+        } = self.job
+        else {
+            return Err(ApplyError::Incomplete);
+        };
+        if received != len {
+            return Err(ApplyError::Incomplete);
+        }
+        self.job = Job::None;
+        let flash = |e: F::Error| ApplyError::Flash(code(e));
+        let mut img = self.image(slot, len);
+        let header = match checkpoint::check_from(&mut img) {
+            Ok(h) => h,
+            Err(SourceError::Read(e)) => return Err(flash(e)),
+            Err(SourceError::Checkpoint(e)) => return Err(ApplyError::Image(e)),
+        };
+        let mut crc = [0u8; 4];
+        img.read(len as usize - 4, &mut crc).map_err(flash)?;
+        let crc = u32::from_le_bytes(crc);
+        if crc != expected.crc {
+            return Err(ApplyError::CrcMismatch);
+        }
+        if header.config_fingerprint != expected.fingerprint {
+            return Err(ApplyError::FingerprintMismatch);
+        }
+        if ctrl.busy() {
+            return Err(ApplyError::Busy);
+        }
+        let h = Self::header_for(sequence, &header, len, crc);
+        self.commit(slot, &h).map_err(flash)?;
+        match checkpoint::restore_from(ctrl, &mut self.image(slot, len)) {
+            Ok(header) => Ok(StoredCopy::of(sequence, &header, len)),
+            Err(SourceError::Read(e)) => Err(flash(e)),
+            Err(SourceError::Checkpoint(e)) => Err(ApplyError::Image(e)),
+        }
+    }
+}
+
+impl<F: NorFlash> TableStore for FlashStore<F> {
+    fn stored(&mut self) -> Option<StoredCopy> {
+        let (_, valid) = self.by_sequence().ok()?;
+        let (_, h) = valid[0]?;
+        (h.format == FORMAT).then_some(StoredCopy {
+            sequence: h.sequence,
+            steps: h.steps,
+            fingerprint: h.fingerprint,
+            provenance: Provenance {
+                preset: h.provenance.0,
+                ablation: h.provenance.1,
+            },
+            len: h.len,
+        })
+    }
+
+    fn save_begin(&mut self, ctrl: &Controller, provenance: Provenance) -> Result<(), SaveError> {
+        self.job = Job::None;
+        let cursor = ImageCursor::new(ctrl, provenance);
+        if cursor.len() as u32 > self.capacity() {
+            return Err(SaveError::TooLarge);
+        }
+        let (slot, sequence) = self.next_slot().map_err(|e| SaveError::Flash(code(e)))?;
+        self.job = Job::Save {
+            slot,
+            sequence,
+            cursor,
+            erased: 0,
+            programmed: 0,
+        };
+        Ok(())
+    }
+
+    fn save_step(&mut self, ctrl: &Controller) -> Result<Option<StoredCopy>, SaveError> {
+        self.save_step_inner(ctrl)
+    }
+
+    fn saving(&self) -> bool {
+        matches!(self.job, Job::Save { .. })
+    }
+
+    fn save_cancel(&mut self) {
+        if self.saving() {
+            self.job = Job::None;
+        }
+    }
+
+    fn stage_begin(&mut self, len: u32) -> Result<(), StageError> {
+        self.job = Job::None;
+        if len < 8 || len > self.capacity() || len as usize > checkpoint::MAX_SIZE {
+            return Err(StageError::TooLarge);
+        }
+        let (slot, sequence) = self.next_slot().map_err(|e| StageError::Flash(code(e)))?;
+        self.job = Job::Stage {
+            slot,
+            sequence,
+            len,
+            received: 0,
+            erased: 0,
+            pending: [0; PROGRAM],
+            pending_len: 0,
+        };
+        Ok(())
+    }
+
+    fn stage_write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), StageError> {
+        let r = self.stage_write_inner(offset, bytes);
+        if matches!(r, Err(StageError::Flash(_))) {
+            self.job = Job::None;
+        }
+        r
+    }
+
+    fn stage_apply(
+        &mut self,
+        ctrl: &mut Controller,
+        expected: Expected,
+    ) -> Result<StoredCopy, ApplyError> {
+        self.stage_apply_inner(ctrl, expected)
+    }
+
+    fn erase(&mut self) -> Result<(), EraseError> {
+        self.job = Job::None;
+        let page = F::ERASE_SIZE as u32;
+        let flash = |e: F::Error| EraseError::Flash(code(e));
+        // both headers first: from then on neither slot holds a copy
+        for slot in 0..2 {
+            let at = self.slot_at(slot);
+            self.flash.erase(at, at + page).map_err(flash)?;
+        }
+        for slot in 0..2 {
+            let at = self.slot_at(slot);
+            self.flash
+                .erase(at + page, at + self.slot_size)
+                .map_err(flash)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,34 @@
+//! The learned tables of the TRN controller in a microcontroller's flash, so that a board
+//! keeps what it learned across resets.
+//!
+//! [`FlashStore`] keeps two slots in a region of any `embedded-storage` [`NorFlash`]. A save
+//! writes the checkpoint image (`trn_controller::checkpoint`, produced piece by piece from
+//! the live tables: no RAM buffer of it) into the slot that does not hold the newest copy,
+//! reads it back, and only then programs the slot's header ([`slot::SlotHeader`]: magic,
+//! format version, sequence number, length, configuration fingerprint, the image's CRC and a
+//! CRC of its own). The header is the commit record: a save cut short at any program or
+//! erase step leaves a slot without a valid header, and the other slot, the previous copy,
+//! untouched. At boot [`FlashStore::restore`] takes the valid slot with the highest sequence
+//! number; a corrupt newest copy falls back to the previous one; a copy in a format or of a
+//! configuration this build does not take is refused with a typed error, never half used.
+//!
+//! A save is a job of small steps (one erase, or a few KiB programmed) that a node runs
+//! between bus messages ([`trn_controller::persist::TableStore`]); an incoming image is
+//! staged in the same inactive slot and applied only once whole and verified.
+//! [`policy`] derives how often to save from the part's flash endurance.
+//!
+//! [`NorFlash`]: embedded_storage::nor_flash::NorFlash
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+mod flash_store;
+pub mod policy;
+#[cfg(feature = "sim")]
+pub mod sim;
+pub mod slot;
+
+pub use flash_store::{FlashStore, LayoutError, RestoreError};
+pub use trn_controller::persist::{
+    ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,
+};

@@ -1,0 +1,183 @@
+//! Power lost at every single program and erase step of a save (and of staging an incoming
+//! image): after each cut the store boots with the previous tables or the new ones, never
+//! torn ones, never none.
+
+mod common;
+
+use common::*;
+use trn_controller::checkpoint::{self, Provenance};
+use trn_controller::persist::Expected;
+use trn_controller::Controller;
+use trn_store::{RestoreError, TableStore};
+
+/// What a boot after a cut restored.
+#[derive(Debug, Default)]
+struct Outcomes {
+    old: u32,
+    new: u32,
+}
+
+/// Runs `op` on a store over a copy of `flash` with power lost at every step it makes, boots
+/// after each cut, and checks the restored tables are `old` or `new`. Every `resave`-th cut
+/// also saves `new` after the reboot and checks it is then restored. Returns how many cut
+/// points were tried.
+fn every_cut(
+    flash: &Flash,
+    tear: bool,
+    old: &Controller,
+    new: &Controller,
+    resave: u64,
+    op: impl Fn(&mut trn_store::FlashStore<Flash>) -> bool,
+) -> (u64, Outcomes) {
+    // the steps of the whole operation, without a cut
+    let mut f = flash.clone();
+    f.reset_steps();
+    let mut dry = reboot(f);
+    assert!(op(&mut dry), "the operation completes without a cut");
+    let steps = dry.flash().steps();
+    let mut out = Outcomes::default();
+    for k in 0..steps {
+        let mut f = flash.clone();
+        f.cut_power_at(k);
+        f.tear(tear, k + 1);
+        let mut s = reboot(f);
+        assert!(
+            !op(&mut s),
+            "cut at step {k} of {steps}: the operation still completed"
+        );
+        let mut f = s.into_flash();
+        assert!(f.power_lost());
+        f.restore_power();
+        let mut s = reboot(f);
+        let mut got = blank();
+        match s.restore(&mut got, None) {
+            Ok(_) if same_tables(&got, old) => out.old += 1,
+            Ok(_) if same_tables(&got, new) => out.new += 1,
+            Ok(copy) => panic!("cut at step {k}: torn tables restored ({copy:?})"),
+            Err(e) => panic!("cut at step {k}: nothing restored ({e:?})"),
+        }
+        if k % resave == 0 {
+            save(&mut s, new).unwrap_or_else(|e| panic!("cut at {k}: save after it: {e:?}"));
+            let mut again = blank();
+            s.restore(&mut again, None).unwrap();
+            assert!(same_tables(&again, new), "cut at {k}: the save after it");
+        }
+    }
+    (steps, out)
+}
+
+/// Saves `ctrl`; false when the flash lost power.
+fn saves(ctrl: &Controller) -> impl Fn(&mut trn_store::FlashStore<Flash>) -> bool + '_ {
+    move |s| save(s, ctrl).is_ok()
+}
+
+#[test]
+fn power_cut_at_every_step_of_the_first_save_after_one_copy() {
+    let old = learned(1, 3);
+    let new = learned(2, 5);
+    let mut s = store();
+    save(&mut s, &old).unwrap();
+    let flash = s.into_flash();
+    let (steps, out) = every_cut(&flash, false, &old, &new, 997, saves(&new));
+    println!(
+        "power_cut (one copy stored, clean cuts): {steps} cut points tried; {} booted the previous tables, {} the new ones",
+        out.old, out.new
+    );
+    assert!(
+        steps > 7_000,
+        "{steps}: every program word and erased page is a cut point"
+    );
+    assert_eq!(
+        out.old, steps as u32,
+        "the new copy counts only once its header is whole"
+    );
+}
+
+#[test]
+fn power_cut_at_every_step_with_torn_words_and_pages_when_both_slots_hold_copies() {
+    let older = learned(3, 2);
+    let old = learned(4, 4);
+    let new = learned(5, 6);
+    let mut s = store();
+    save(&mut s, &older).unwrap();
+    save(&mut s, &old).unwrap();
+    let flash = s.into_flash();
+    let (steps, out) = every_cut(&flash, true, &old, &new, 997, saves(&new));
+    println!(
+        "power_cut (two copies stored, torn words and pages): {steps} cut points tried; {} booted the previous tables, {} the new ones",
+        out.old, out.new
+    );
+    assert!(steps > 7_000);
+    assert_eq!(out.old + out.new, steps as u32);
+}
+
+/// Staging an incoming image and applying it, cut at every step: the previous tables or the
+/// new ones.
+#[test]
+fn power_cut_at_every_step_of_staging_and_applying_an_image() {
+    let old = learned(6, 3);
+    let new = learned(7, 2);
+    let mut s = store();
+    save(&mut s, &old).unwrap();
+    let flash = s.into_flash();
+    let mut image = vec![0u8; checkpoint::MAX_SIZE];
+    let n = checkpoint::save(&new, Provenance::CUSTOM, &mut image).unwrap();
+    image.truncate(n);
+    let expected = Expected {
+        crc: u32::from_le_bytes(image[n - 4..].try_into().unwrap()),
+        fingerprint: new.config().fingerprint(),
+    };
+    let stage = |s: &mut trn_store::FlashStore<Flash>| {
+        if s.stage_begin(image.len() as u32).is_err() {
+            return false;
+        }
+        for (k, piece) in image.chunks(56).enumerate() {
+            if s.stage_write(k as u32 * 56, piece).is_err() {
+                return false;
+            }
+        }
+        let mut into = blank();
+        s.stage_apply(&mut into, expected).is_ok()
+    };
+    let (steps, out) = every_cut(&flash, true, &old, &new, 1_999, stage);
+    println!(
+        "power_cut (staging an incoming image, torn): {steps} cut points tried; {} booted the previous tables, {} the new ones",
+        out.old, out.new
+    );
+    assert!(steps > 7_000);
+}
+
+/// Erasing the stored copies, cut at every step: the copy or nothing, never torn tables.
+#[test]
+fn power_cut_while_erasing_leaves_the_copy_or_nothing() {
+    let old = learned(8, 2);
+    let mut s = store();
+    save(&mut s, &old).unwrap();
+    let flash = s.into_flash();
+    let mut f = flash.clone();
+    f.reset_steps();
+    let mut dry = reboot(f);
+    dry.erase().unwrap();
+    let steps = dry.flash().steps();
+    for k in 0..steps {
+        let mut f = flash.clone();
+        f.cut_power_at(k);
+        f.tear(true, k + 7);
+        let mut s = reboot(f);
+        assert!(s.erase().is_err());
+        let mut f = s.into_flash();
+        f.restore_power();
+        let mut got = blank();
+        match reboot(f).restore(&mut got, None) {
+            Ok(_) => assert!(same_tables(&got, &old), "cut {k}: torn tables"),
+            Err(RestoreError::NothingStored | RestoreError::AllCorrupt) => {
+                assert!(
+                    same_tables(&got, &blank()),
+                    "cut {k}: a refused copy was used"
+                )
+            }
+            Err(e) => panic!("cut {k}: {e:?}"),
+        }
+    }
+    println!("power_cut (erasing the copies, torn): {steps} cut points tried");
+}
