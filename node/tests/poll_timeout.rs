@@ -64,6 +64,7 @@ fn a_pending_request_is_due_at_its_repeat() {
         heartbeat_period_ms: 1000,
         reply_timeout_ms: 30,
         retries: 3,
+        ..NodeConfig::DEFAULT
     };
     let mut c = Box::new(Controller::new(Config::project_default()));
     c.init_random(1);
