@@ -170,6 +170,17 @@ impl Pending {
         }
     }
 
+    /// When [`Pending::poll`] next acts (repeats the request or gives up): `timeout_ms`
+    /// after the request was sent or last repeated; `None` when nothing is awaited.
+    pub(crate) fn deadline(&self, timeout_ms: u32) -> Option<u32> {
+        match *self {
+            Pending::None => None,
+            Pending::Servos { since_ms, .. }
+            | Pending::Observation { since_ms, .. }
+            | Pending::Gripper { since_ms, .. } => Some(since_ms.wrapping_add(timeout_ms)),
+        }
+    }
+
     /// Timers: repeats a request whose answer is overdue (returns `Ok(true)` when it did),
     /// or gives up after `retries` repeats.
     pub(crate) fn poll(

@@ -6,7 +6,8 @@
 //! `now_ms`) and does no I/O: messages come in through [`ControllerNode::on_message`],
 //! timers advance in [`ControllerNode::poll`], and everything to send is pushed into an
 //! [`Outbox`] that the caller frames onto its bus. [`ControllerNode::service`] is one turn
-//! of the loop on any `embedded-can` port, the code path every build shares.
+//! of the loop on any `embedded-can` port, the code path every build shares, and
+//! [`ControllerNode::poll_timeout`] says when the loop must come back if no frame arrives.
 //!
 //! One trial on the bus is specified in `protocol/SPEC.md`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -25,4 +26,4 @@ pub use codes::controller_error_code;
 pub use config::NodeConfig;
 pub use node::{ControllerNode, NodeStats};
 pub use outbox::{send, FrameError, Outbox, OUTBOX};
-pub use service::PortError;
+pub use service::{from_protocol, to_protocol};

@@ -145,6 +145,22 @@ impl ControllerNode {
         }
     }
 
+    /// The `now_ms` at which the node next needs a turn if no frame arrives: the earlier of
+    /// its next heartbeat and the repeat or give-up of the request it waits on (what
+    /// [`ControllerNode::poll`] would act on first). A loop may sleep until then or until a
+    /// frame comes (times wrap like `now_ms`: compare with `wrapping_sub`).
+    ///
+    /// `None` until the timers first ran (the first `poll`, which every `service` makes):
+    /// the first heartbeat is due at once, so a loop gives the node a turn before waiting.
+    pub fn poll_timeout(&self) -> Option<u32> {
+        let heartbeat = self.heartbeat_due_ms?;
+        Some(match self.pending.deadline(self.cfg.reply_timeout_ms) {
+            // the request's deadline comes first (wrapping comparison)
+            Some(request) if (request.wrapping_sub(heartbeat) as i32) < 0 => request,
+            _ => heartbeat,
+        })
+    }
+
     /// Feeds one received frame through `rx`; a completed message is handled and every
     /// frame to send is passed to `tx`, encoded by `enc`. Frame errors (malformed, lost,
     /// corrupt segments) are returned after the frame is dropped.
