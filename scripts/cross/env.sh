@@ -7,11 +7,12 @@ QEMU_ARM="$root/.vm/qemu-arm/root/usr/bin/qemu-system-arm"
 # nalgebra and build scripts: one directory per variant cost 0.5 GB of disk each); cargo
 # keeps each feature set's artifacts apart but writes the linked binary to one path, so each
 # variant's ELF is copied to `firmware/target/elf/trn-firmware-VARIANT` right after its build.
-#   build_firmware VARIANT TARGET [FEATURES]    prints the ELF's path
+#   build_firmware VARIANT TARGET [FEATURES [--no-default-features]]    prints the ELF's path
+# (the compact variants build without the default features: no Broyden servo, firmware/Cargo.toml)
 build_firmware() {
-    local variant=$1 target=$2 features=${3:-}
+    local variant=$1 target=$2 features=${3:-} defaults=${4:-}
     (cd "$root/firmware" && CARGO_TARGET_DIR="$root/firmware/target" $CARGO build --quiet --release --target "$target" \
-        ${features:+--features "$features"}) >&2 || return 1
+        ${features:+--features "$features"} $defaults) >&2 || return 1
     mkdir -p "$root/firmware/target/elf"
     cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
     echo "$root/firmware/target/elf/trn-firmware-$variant"
