@@ -14,6 +14,13 @@
 #   stack's high-water mark added (what a 128 KiB part must hold) at least 2 KiB of it left
 #   free, flash <= 256 KiB (parts with 128 KiB of RAM carry at least that, e.g. STM32F411xC);
 #   its step costs are reported.
+#   The board images (firmware/boards: STM32H743 with the f32 tables, STM32G474 with the compact
+#   ones) are built and checked against their part: one line each, `board NAME: RAM N of M B,
+#   flash N of M B: ok`. Their RAM is .data + .bss + .uninit plus the stack's high-water mark
+#   that QEMU measured here for the same controller build (the benchmark firmware's, the deepest
+#   of the measured ones: QEMU models neither part, so a board image cannot run in it); M is the
+#   RAM region of embassy-stm32's memory.x for the chip (checked against the link) and the
+#   part's flash.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
@@ -98,6 +105,35 @@ check "compact: flash, firmware with the CAN node" "$flash_pc" 262144 bytes
 printf '%-58s %10s\n' "compact: static RAM / flash, benchmark firmware" "$ram_c / $flash_c"
 printf '%-58s %10s\n' "compact: stage-1 control step, mean / max" "$control_c"
 printf '%-58s %10s\n' "compact: stage-1 learning step, mean / max" "$learn_c"
+# the board images: NAME, the controller build whose stack it has, the part's RAM region and flash
+echo
+echo "board images (firmware/boards): RAM = static (.data+.bss+.uninit) + the stack high-water mark QEMU measured above for the same controller build"
+symbol() { echo $((16#$(arm-none-eabi-nm "$1" | awk -v s="$2" '$3==s{print $1}'))); }
+for board in "stm32h743 f32 524288 2097152" "stm32g474 compact 131072 524288"; do
+    read -r name build ram_size flash_size <<< "$board"
+    if ! board_elf=$(build_board "$name"); then
+        echo "board $name: FAIL: the image did not build" >&2
+        fail=1
+        continue
+    fi
+    read -r ram_b flash_b < <(sections "$board_elf")
+    stack_b=$stack
+    [ "$build" = compact ] && stack_b=$stack_c
+    region=$(($(symbol "$board_elf" _stack_start) - $(symbol "$board_elf" __sdata)))
+    if [ "$region" -ne "$ram_size" ]; then
+        echo "board $name: FAIL: the link's RAM region is $region B, not the part's $ram_size B" >&2
+        fail=1
+        continue
+    fi
+    line="board $name: RAM $((ram_b + stack_b)) of $ram_size B, flash $flash_b of $flash_size B"
+    if [ $((ram_b + stack_b)) -le "$ram_size" ] && [ "$flash_b" -le "$flash_size" ]; then
+        echo "$line: ok"
+    else
+        echo "$line: FAIL (over: RAM by $((ram_b + stack_b - ram_size)) B, flash by $((flash_b - flash_size)) B; a negative figure is room left)"
+        fail=1
+    fi
+done
+echo
 broyden=$(echo "$out" | sed -n 's/^phase broyden servo step.*: mean \([0-9]*\) max \([0-9]*\) instructions$/\1 \/ \2/p')
 printf '%-58s %10s\n' "Broyden servo baseline: stage-1 servo step, mean / max" "${broyden:-missing}"
 [ -n "$broyden" ] || { echo "budget: FAIL: no Broyden figures" >&2; fail=1; }

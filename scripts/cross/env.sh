@@ -17,3 +17,16 @@ build_firmware() {
     cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
     echo "$root/firmware/target/elf/trn-firmware-$variant"
 }
+# The board images (firmware/boards, their own workspace): each built from its directory, so
+# that its .cargo/config.toml (probe-rs runner, defmt buffer) applies, all in the one target
+# directory firmware/boards/target; each program's ELF is copied to
+# firmware/boards/target/elf/BOARD-PROGRAM (every board names its node program alike).
+#   build_board BOARD [PROGRAM]    prints the ELF's path
+build_board() {
+    local board=$1 program=${2:-trn-controller}
+    (cd "$root/firmware/boards/$board" && CARGO_TARGET_DIR="$root/firmware/boards/target" $CARGO build --quiet --release \
+        --bin "$program") >&2 || return 1
+    mkdir -p "$root/firmware/boards/target/elf"
+    cp "$root/firmware/boards/target/thumbv7em-none-eabihf/release/$program" "$root/firmware/boards/target/elf/$board-$program"
+    echo "$root/firmware/boards/target/elf/$board-$program"
+}
