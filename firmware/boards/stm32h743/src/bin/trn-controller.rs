@@ -71,6 +71,8 @@ async fn main(_spawner: Spawner) {
     if let Some(mut core) = cortex_m::Peripherals::take() {
         core.SCB.enable_icache();
         core.SCB.enable_dcache(&mut core.CPUID);
+    } else {
+        defmt::warn!("the core peripherals were taken: caches left off (the steps run slower)");
     }
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
     let running = rcc::frequency::<FDCAN1>();
