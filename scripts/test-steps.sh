@@ -18,9 +18,14 @@ prune_if_low target/static
 # Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.
 step cross-build bash scripts/cross/check-controller.sh
 prune_if_low target/cross
+# ... and the board images (firmware/boards: built by budget.sh, one line each), linted with
+# the cross toolchain's clippy.
 step firmware-budget bash scripts/cross/budget.sh
-# The compact build (i16 tables): its unit tests, and its error within 5 % of the f32 build's.
-step compact-tables cargo test --release -p trn-controller --features compact
+step board-lint bash scripts/cross/lint-boards.sh
+prune_if_low firmware/boards/target
+# The compact build (i16 tables): its unit tests as the compact firmware builds it (no Broyden
+# servo), and its error within 5 % of the f32 build's.
+step compact-tables cargo test --release -p trn-controller --no-default-features --features compact
 step compact-accuracy bash scripts/compact.sh --check
 prune_if_low target/compact
 # Processor-in-the-loop: the simulator trains the firmware in QEMU; curves match the host build.

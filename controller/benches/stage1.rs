@@ -15,10 +15,11 @@ fn stage1() -> Box<Stage1> {
 }
 
 fn benches(c: &mut Criterion) {
+    let mut scratch = Box::new(RankScratch::new());
     let mut s = stage1();
     c.bench_function("stage1 rank + coarse output (partial selection)", |b| {
         b.iter(|| {
-            let p = s.begin(black_box(&V), None, false).unwrap();
+            let p = s.begin(black_box(&V), None, false, &mut scratch).unwrap();
             s.abort();
             p
         })
@@ -26,14 +27,13 @@ fn benches(c: &mut Criterion) {
     s.set_rank_mode(RankMode::FullSort);
     c.bench_function("stage1 rank + coarse output (full sort)", |b| {
         b.iter(|| {
-            let p = s.begin(black_box(&V), None, false).unwrap();
+            let p = s.begin(black_box(&V), None, false, &mut scratch).unwrap();
             s.abort();
             p
         })
     });
 
     let net = stage1();
-    let mut scratch = Box::new(RankScratch::<1000>::new());
     let mut r = Ranking::<128>::new();
     c.bench_function("rank 1000 neurons: partial selection of 128", |b| {
         b.iter(|| {
@@ -62,7 +62,7 @@ fn benches(c: &mut Criterion) {
         "stage1 rank + coarse + one fine move (mean Jacobian + output)",
         |b| {
             b.iter(|| {
-                s.begin(&V, None, false).unwrap();
+                s.begin(&V, None, false, &mut scratch).unwrap();
                 let mut seen = V;
                 seen[0] += 20.0;
                 let step = s.observe(black_box(&seen)).unwrap();

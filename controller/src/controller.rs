@@ -1,8 +1,11 @@
 //! Both networks and the two-stage grasp, behind one state machine.
 
+use crate::broyden::BroydenPair;
+#[cfg(feature = "broyden")]
 use crate::broyden::BroydenStage;
 use crate::config::{Config, Law};
 use crate::error::{Error, Result};
+use crate::rank::RankScratch;
 use crate::stage::{FineMoves, Stage, StageOutcome, StageStep};
 
 /// Ranks that carry weight in the averages and updates (see [`crate::rules`]).
@@ -134,6 +137,8 @@ pub struct Controller {
     cfg: Config,
     stage1: Stage1,
     stage2: Stage2,
+    /// The ranking's working memory, shared by the stages (they never rank at once).
+    scratch: RankScratch,
     running: Running,
     /// The stage-2 target of the grasp in progress.
     grasp_c: [f32; 4],
@@ -145,9 +150,9 @@ pub struct Controller {
     held: [f32; JOINTS],
     /// The fine-move rule of the task in progress (a grasp's stage 2 uses it too).
     fine: FineMoves,
-    /// The Broyden servo's stages, run instead of the networks under [`Law::Broyden`].
-    broyden1: BroydenStage<8, 5>,
-    broyden2: BroydenStage<4, 3>,
+    /// The Broyden servo's stages, run instead of the networks under [`Law::Broyden`]
+    /// (nothing without the cargo feature `broyden`).
+    broyden: BroydenPair,
 }
 
 impl Controller {
@@ -158,14 +163,14 @@ impl Controller {
             cfg,
             stage1: Stage::new(cfg.stage1),
             stage2: Stage::new(cfg.stage2),
+            scratch: RankScratch::new(),
             running: Running::Idle,
             grasp_c: [0.0; 4],
             stage1_outcome: crate::stage::ZERO_OUTCOME,
             stage1_done: false,
             held: [0.0; JOINTS],
             fine: FineMoves::Policy,
-            broyden1: BroydenStage::new(cfg.stage1, cfg.broyden),
-            broyden2: BroydenStage::new(cfg.stage2, cfg.broyden),
+            broyden: BroydenPair::new(cfg.stage1, cfg.stage2, cfg.broyden),
         }
     }
 
@@ -184,19 +189,31 @@ impl Controller {
         self.stage1.init_random(&mut rng);
         self.stage2.init_random(&mut rng);
         // the Broyden servo starts afresh too: it measures its Jacobian again
-        self.broyden1.reset();
-        self.broyden2.reset();
+        self.broyden.reset();
         self.running = Running::Idle;
     }
 
     /// The Broyden servo's stage 1 (run under [`Law::Broyden`]).
+    #[cfg(feature = "broyden")]
     pub fn broyden1(&self) -> &BroydenStage<8, 5> {
-        &self.broyden1
+        &self.broyden.stage1
     }
 
     /// The Broyden servo's stage 2.
+    #[cfg(feature = "broyden")]
     pub fn broyden2(&self) -> &BroydenStage<4, 3> {
-        &self.broyden2
+        &self.broyden.stage2
+    }
+
+    /// Whether this build runs `law`: the TRN always, the Broyden servo with the cargo
+    /// feature `broyden` (a default), the host's model-based reference never (it lives in
+    /// the simulator).
+    pub const fn runs(law: Law) -> bool {
+        match law {
+            Law::Trn => true,
+            Law::Broyden => BroydenPair::BUILT,
+            Law::Model | Law::Oracle => false,
+        }
     }
 
     /// The configuration.
@@ -209,13 +226,13 @@ impl Controller {
         if self.busy() {
             return Err(Error::Busy);
         }
-        if cfg.law.host_only() {
+        if !Self::runs(cfg.law) {
             return Err(Error::UnsupportedLaw);
         }
         self.stage1.set_config(cfg.stage1)?;
         self.stage2.set_config(cfg.stage2)?;
-        self.broyden1.set_config(cfg.stage1, cfg.broyden)?;
-        self.broyden2.set_config(cfg.stage2, cfg.broyden)?;
+        self.broyden
+            .set_config(cfg.stage1, cfg.stage2, cfg.broyden)?;
         self.cfg = cfg;
         Ok(())
     }
@@ -249,8 +266,7 @@ impl Controller {
     pub fn abort(&mut self) {
         self.stage1.abort();
         self.stage2.abort();
-        self.broyden1.abort();
-        self.broyden2.abort();
+        self.broyden.abort();
         self.running = Running::Idle;
     }
 
@@ -283,7 +299,7 @@ impl Controller {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
                 match self.cfg.law {
                     Law::Trn | Law::Model | Law::Oracle => self.stage2.check_input(&c)?,
-                    Law::Broyden => self.broyden2.check_input(&c)?,
+                    Law::Broyden => self.broyden.check_input2(&c)?,
                 }
                 let p = self.begin1(&v, None, learn)?;
                 self.grasp_c = c;
@@ -303,32 +319,34 @@ impl Controller {
     ) -> Result<[f32; 5]> {
         match self.cfg.law {
             Law::Trn | Law::Model | Law::Oracle => {
-                self.stage1.begin_with(v, supervised, learn, self.fine)
+                self.stage1
+                    .begin_with(v, supervised, learn, self.fine, &mut self.scratch)
             }
-            Law::Broyden => self.broyden1.begin_with(v, supervised.is_some(), self.fine),
+            Law::Broyden => self.broyden.begin1(v, supervised.is_some(), self.fine),
         }
     }
 
     fn observe1(&mut self, v: &[f32; 8]) -> Result<StageStep<5>> {
         match self.cfg.law {
             Law::Trn | Law::Model | Law::Oracle => self.stage1.observe(v),
-            Law::Broyden => self.broyden1.observe(v),
+            Law::Broyden => self.broyden.observe1(v),
         }
     }
 
     fn observe2(&mut self, c: &[f32; 4]) -> Result<StageStep<3>> {
         match self.cfg.law {
             Law::Trn | Law::Model | Law::Oracle => self.stage2.observe(c),
-            Law::Broyden => self.broyden2.observe(c),
+            Law::Broyden => self.broyden.observe2(c),
         }
     }
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
         let p = match self.cfg.law {
             Law::Trn | Law::Model | Law::Oracle => {
-                self.stage2.begin_with(c, None, learn, self.fine)?
+                self.stage2
+                    .begin_with(c, None, learn, self.fine, &mut self.scratch)?
             }
-            Law::Broyden => self.broyden2.begin_with(c, false, self.fine)?,
+            Law::Broyden => self.broyden.begin2(c, self.fine)?,
         };
         self.running = Running::Stage2;
         Ok(self.move2(p))
@@ -413,6 +431,36 @@ impl Controller {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The Broyden servo runs exactly when it is built (feature `broyden`); without it a
+    /// configuration asking for it is refused and changes nothing, and the TRN still runs.
+    #[test]
+    fn the_broyden_law_is_refused_exactly_when_it_is_left_out() {
+        let built = cfg!(feature = "broyden");
+        assert_eq!(Controller::runs(Law::Broyden), built);
+        assert!(Controller::runs(Law::Trn) && !Controller::runs(Law::Model));
+        let mut c = std::boxed::Box::new(Controller::new(Config::project_default()));
+        c.init_random(3);
+        let broyden = Config {
+            law: Law::Broyden,
+            ..Config::project_default()
+        };
+        match c.set_config(broyden) {
+            Ok(()) => assert!(built),
+            Err(e) => {
+                assert!(!built);
+                assert_eq!(e, Error::UnsupportedLaw);
+                assert_eq!(*c.config(), Config::project_default());
+            }
+        }
+        let v = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
+        let task = Task::Stage1 {
+            v,
+            supervised: None,
+            learn: true,
+        };
+        assert!(matches!(c.begin(task), Ok(Command::Move { .. })));
+    }
 
     /// The static RAM budget is checked on the firmware link (scripts/cross/budget.sh);
     /// this only keeps the controller's own state from growing unnoticed.

@@ -140,28 +140,28 @@ fn heap_sort(dist: &mut [u32], index: &mut [u16]) {
     }
 }
 
-/// Scratch space for ranking `N` neurons: the buffers of [`RankMode::PartialSelect`]'s
-/// bucketed scan (1,792 bytes, whatever `N`), kept with the ranking's owner rather than on
+/// Scratch space for a ranking: the buffers of [`RankMode::PartialSelect`]'s bucketed scan
+/// (2,048 bytes, whatever the number of neurons), kept by the ranking's owner rather than on
 /// the stack, where zeroing them at every call cost about 1,500 instructions on the
-/// Cortex-M4F. [`RankMode::FullSort`] (the host reference) sorts on the stack.
+/// Cortex-M4F. Nothing in it outlives a call, so rankings that never run at the same time
+/// share one (the controller's two stages do). [`RankMode::FullSort`] (the host reference)
+/// sorts on the stack.
 #[derive(Debug, Clone)]
-pub struct RankScratch<const N: usize> {
+pub struct RankScratch {
     buf: Buffers,
-    _n: [(); N],
 }
 
-impl<const N: usize> Default for RankScratch<N> {
+impl Default for RankScratch {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> RankScratch<N> {
+impl RankScratch {
     /// Zeroed scratch.
     pub const fn new() -> Self {
         RankScratch {
             buf: Buffers::new(),
-            _n: [(); N],
         }
     }
 }
@@ -474,7 +474,7 @@ impl<const K: usize> Ranking<K> {
         &mut self,
         w: &[[E; D]; N],
         u: &[f32; D],
-        scratch: &mut RankScratch<N>,
+        scratch: &mut RankScratch,
         mode: RankMode,
     ) {
         const { assert!(K <= N && K > 0 && N <= u16::MAX as usize) };
@@ -757,7 +757,7 @@ mod tests {
                 }
             }
             let reference = brute(&w, &u);
-            let mut scratch = RankScratch::<60>::new();
+            let mut scratch = RankScratch::new();
             let mut full = Ranking::<60>::new();
             full.compute(&w, &u, &mut scratch, RankMode::FullSort);
             let mut part = Ranking::<17>::new();
@@ -801,7 +801,7 @@ mod tests {
                 }
             }
             let u: [f32; 8] = core::array::from_fn(|_| crate::net::uniform(&mut rng, 100.0, 540.0));
-            let mut scratch = RankScratch::<1000>::new();
+            let mut scratch = RankScratch::new();
             let mut full = Ranking::<1000>::new();
             full.compute(&w, &u, &mut scratch, RankMode::FullSort);
             let mut part = Ranking::<128>::new();
@@ -837,7 +837,7 @@ mod tests {
                 let mut full = Ranking::<1000>::new();
                 full.full_sort(&w, &u);
                 let mut part = Ranking::<128>::new();
-                let mut scratch = RankScratch::<1000>::new();
+                let mut scratch = RankScratch::new();
                 if part.select_bucketed(&w, &u, &mut scratch.buf) {
                     decided += 1;
                     assert_eq!(
@@ -886,7 +886,7 @@ mod tests {
             *wk = [k as f32 * 0.5, (k % 7) as f32];
         }
         let u = [-1.0, 3.0];
-        let mut scratch = RankScratch::<300>::new();
+        let mut scratch = RankScratch::new();
         for reverse in [false, true] {
             if reverse {
                 w.reverse();
@@ -903,7 +903,7 @@ mod tests {
     #[test]
     fn rank_of_a_known_layout() {
         let w = [[0.0f32, 0.0], [5.0, 0.0], [1.0, 0.0], [3.0, 0.0]];
-        let mut s = RankScratch::<4>::new();
+        let mut s = RankScratch::new();
         let mut r = Ranking::<4>::new();
         r.compute(&w, &[2.9, 0.0], &mut s, RankMode::FullSort);
         assert_eq!(r.indices(), &[3, 2, 1, 0]);

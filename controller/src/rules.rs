@@ -554,7 +554,7 @@ mod tests {
         net: &Trn<N, D, M>,
         u: &[f32; D],
     ) -> Ranking<K> {
-        let mut s = RankScratch::<N>::new();
+        let mut s = RankScratch::new();
         let mut r = Ranking::<K>::new();
         r.compute(&net.w, u, &mut s, RankMode::FullSort);
         r
@@ -876,7 +876,7 @@ mod tests {
         let mut net = crate::net::Stage1Net::new();
         net.init_random(&mut rng, &crate::Config::paper().stage1.init);
         let u = [320.0, 240.0, 300.0, 250.0, 340.0, 230.0, 330.0, 220.0];
-        let mut s = RankScratch::<1000>::new();
+        let mut s = RankScratch::new();
         let mut full = Ranking::<1000>::new();
         full.compute(&net.w, &u, &mut s, RankMode::FullSort);
         let mut part = Ranking::<128>::new();
@@ -908,7 +908,7 @@ mod tests {
         a.init_random(&mut rng, &cfg.init);
         let mut b = a.clone();
         let u = [300.0, 200.0, 310.0, 210.0, 320.0, 220.0, 330.0, 230.0];
-        let mut s = RankScratch::<1000>::new();
+        let mut s = RankScratch::new();
         let mut full = Ranking::<1000>::new();
         full.compute(&a.w, &u, &mut s, RankMode::FullSort);
         let mut part = Ranking::<128>::new();

@@ -122,7 +122,6 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     cfg: StageConfig,
     rank_mode: RankMode,
     t: u32,
-    scratch: RankScratch<N>,
     ranking: Ranking<K>,
     alpha: Falloff<K>,
     neighbour: Falloff<K>,
@@ -145,7 +144,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             cfg,
             rank_mode: RankMode::PartialSelect,
             t: 0,
-            scratch: RankScratch::new(),
             ranking: Ranking::new(),
             alpha: Falloff::zero(),
             neighbour: Falloff::zero(),
@@ -266,14 +264,16 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     /// - `learn = true`, no `p_target`: the unsupervised scheme, substeps 2-4 (8.9-8.11).
     /// - `learn = false`: mature operation; the tables are not touched.
     ///
-    /// Returns the coarse pressure (8.5) to apply.
+    /// Returns the coarse pressure (8.5) to apply. The ranking's working memory is the
+    /// caller's (`scratch`: the controller shares one between its stages).
     pub fn begin(
         &mut self,
         target: &[f32; D],
         p_target: Option<&[f32; M]>,
         learn: bool,
+        scratch: &mut RankScratch,
     ) -> Result<[f32; M]> {
-        self.begin_with(target, p_target, learn, FineMoves::Policy)
+        self.begin_with(target, p_target, learn, FineMoves::Policy, scratch)
     }
 
     /// [`Stage::begin`] with a choice of how many fine moves the trial makes.
@@ -283,6 +283,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         p_target: Option<&[f32; M]>,
         learn: bool,
         fine: FineMoves,
+        scratch: &mut RankScratch,
     ) -> Result<[f32; M]> {
         if self.phase != Phase::Idle {
             return Err(Error::Busy);
@@ -298,7 +299,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let learn = learn || p_target.is_some();
         let exact = fine.budget()?;
         self.ranking
-            .compute(&self.net.w, target, &mut self.scratch, self.rank_mode);
+            .compute(&self.net.w, target, scratch, self.rank_mode);
         self.begin_ranked(target, p_target, learn, exact)
     }
 
@@ -587,7 +588,13 @@ mod tests {
         }
         let before = s.net().clone();
         let mut p = s
-            .begin_with(&TARGET, None, false, FineMoves::Exactly(3))
+            .begin_with(
+                &TARGET,
+                None,
+                false,
+                FineMoves::Exactly(3),
+                &mut RankScratch::new(),
+            )
             .unwrap();
         let mut out = [0.0; 4];
         for e in out.iter_mut() {

@@ -1,6 +1,7 @@
 //! The Broyden servo baseline behind the same state machine as the TRN: the controller
 //! tests of `state_machine.rs` (typed errors for bad input, the cap, the fixed budget, the
-//! grasp's two stages) under `Law::Broyden`.
+//! grasp's two stages) under `Law::Broyden` (built with the feature `broyden`, a default).
+#![cfg(feature = "broyden")]
 
 use trn_controller::{
     Command, Config, Controller, Error, FineMoves, Law, Observation, ObserveKind, Outcome, Task,

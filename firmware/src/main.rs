@@ -273,9 +273,10 @@ impl Phases {
     }
 }
 
-/// Scratch for the bench's own ranking (the controller's is private to its stage).
+/// Scratch for the bench's own ranking and its direct calls of the stage (the controller's
+/// is private to it).
 #[cfg_attr(feature = "pil", allow(dead_code))]
-static mut RANK_SCRATCH: RankScratch<1000> = RankScratch::new();
+static mut RANK_SCRATCH: RankScratch = RankScratch::new();
 
 #[cfg_attr(feature = "pil", allow(dead_code))]
 fn bench(ctrl: &mut Controller) -> ! {
@@ -291,8 +292,11 @@ fn bench(ctrl: &mut Controller) -> ! {
         let p: [f32; 5] = core::array::from_fn(|_| pseudo_random(&mut rng));
         let v = plant(&p);
         phases.measure(&mut counter, ctrl, &mut ranking, &v);
+        // SAFETY: the bench is single-threaded; RANK_SCRATCH is used by one call at a time.
+        #[allow(unsafe_code)]
+        let scratch = unsafe { &mut *core::ptr::addr_of_mut!(RANK_SCRATCH) };
         let n = counter.measure(|| {
-            let _ = ctrl.stage1_mut().begin(&v, None, false);
+            let _ = ctrl.stage1_mut().begin(&v, None, false, scratch);
             ctrl.stage1_mut().abort();
         });
         ctl_sum += n;
@@ -360,6 +364,7 @@ fn bench(ctrl: &mut Controller) -> ! {
         }
     }
     let finite = ctrl.stage1().net().is_finite();
+    #[cfg(feature = "broyden")]
     let broyden = bench_broyden(ctrl, &mut counter, &mut rng);
     let stack = count::stack_high_water_mark();
     hprintln!("trn-firmware bench (QEMU mps2-an386, Cortex-M4F, -icount shift=0)");
@@ -384,6 +389,7 @@ fn bench(ctrl: &mut Controller) -> ! {
     pressures.print("update pressures (derived: 1st observe - mean Jacobian - fine)");
     jacobians.print("update Jacobians (derived: later observes that move - mean Jacobian - fine)");
     plant_cost.print("synthetic plant, per call (between the calls, not in the step)");
+    #[cfg(feature = "broyden")]
     broyden.print("broyden servo step (Broyden update + damped least squares, stage 1)");
     hprintln!("stack high-water mark: {} bytes", stack);
     hprintln!("tables finite after learning: {}", finite);
@@ -397,6 +403,7 @@ fn bench(ctrl: &mut Controller) -> ! {
 /// The Broyden servo baseline's stage-1 servo steps (`Law::Broyden`: one Broyden update and
 /// one damped-least-squares solve per observation), on the synthetic plant; the first trial
 /// measures its Jacobian (exploration, not counted). Restores the TRN configuration.
+#[cfg(feature = "broyden")]
 #[cfg_attr(feature = "pil", allow(dead_code))]
 #[inline(never)]
 fn bench_broyden(ctrl: &mut Controller, counter: &mut count::Counter, rng: &mut u32) -> Stat {

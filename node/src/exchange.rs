@@ -170,10 +170,10 @@ impl Pending {
         }
     }
 
-    /// When the request's answer is next overdue (`now_ms` of its repeat or give-up), if
-    /// one is awaited.
+    /// When [`Pending::poll`] next acts (repeats the request or gives up): `timeout_ms`
+    /// after the request was sent or last repeated; `None` when nothing is awaited.
     pub(crate) fn deadline(&self, timeout_ms: u32) -> Option<u32> {
-        match self {
+        match *self {
             Pending::None => None,
             Pending::Servos { since_ms, .. }
             | Pending::Observation { since_ms, .. }

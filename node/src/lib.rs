@@ -6,7 +6,8 @@
 //! `now_ms`) and does no I/O: messages come in through [`ControllerNode::on_message`],
 //! timers advance in [`ControllerNode::poll`], and everything to send is pushed into an
 //! [`Outbox`] that the caller frames onto its bus. [`ControllerNode::service`] is one turn
-//! of the loop on any `embedded-can` port, the code path every build shares.
+//! of the loop on any `embedded-can` port, the code path every build shares, and
+//! [`ControllerNode::poll_timeout`] says when the loop must come back if no frame arrives.
 //!
 //! The node guards its learned tables against destructive operations that do not carry a
 //! fresh nonce ([`ControllerNode::seed_guard`], `guard.rs`), and serves them over the bus
@@ -33,4 +34,4 @@ pub use config::NodeConfig;
 pub use guard::{op_code, Refusal};
 pub use node::{ControllerNode, NodeStats};
 pub use outbox::{send, FrameError, Outbox, OUTBOX};
-pub use service::PortError;
+pub use service::{from_protocol, to_protocol};

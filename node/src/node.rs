@@ -145,23 +145,6 @@ impl ControllerNode {
         self.trial
     }
 
-    /// When the node next needs a turn ([`ControllerNode::poll`]) if no frame arrives
-    /// before: the `now_ms` of its next heartbeat or of the repeat (or give-up) of the
-    /// request it waits on, whichever comes first (as quinn-proto's
-    /// `Connection::poll_timeout`). `None` before the first turn has scheduled a heartbeat.
-    /// A loop may sleep until then, or until a frame arrives.
-    pub fn poll_timeout(&self) -> Option<u32> {
-        let request = self.pending.deadline(self.cfg.reply_timeout_ms);
-        match (self.heartbeat_due_ms, request) {
-            (Some(h), Some(r)) => Some(if r.wrapping_sub(h) < u32::MAX / 2 {
-                h
-            } else {
-                r
-            }),
-            (h, r) => h.or(r),
-        }
-    }
-
     /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
     pub fn poll<C: Control + ?Sized>(&mut self, ctrl: &mut C, now_ms: u32, out: &mut Outbox) {
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);
@@ -193,6 +176,29 @@ impl ControllerNode {
             }
         }
         self.poll_tables(ctrl, out);
+    }
+
+    /// The `now_ms` at which the node next needs a turn if no frame arrives: the earlier of
+    /// its next heartbeat and the repeat or give-up of the request it waits on (what
+    /// [`ControllerNode::poll`] would act on first). A loop may sleep until then or until a
+    /// frame comes (times wrap like `now_ms`: compare with `wrapping_sub`).
+    ///
+    /// `None` until the timers first ran (the first `poll`, which every `service` makes):
+    /// the first heartbeat is due at once, so a loop gives the node a turn before waiting.
+    ///
+    /// While a save of the tables runs (one small step a turn) or a status waits to be
+    /// announced, the answer is the last heartbeat's time, already past: the next turn is due
+    /// at once.
+    pub fn poll_timeout(&self) -> Option<u32> {
+        let heartbeat = self.heartbeat_due_ms?;
+        if self.tables_want_a_turn() {
+            return Some(heartbeat.wrapping_sub(self.cfg.heartbeat_period_ms));
+        }
+        Some(match self.pending.deadline(self.cfg.reply_timeout_ms) {
+            // the request's deadline comes first (wrapping comparison)
+            Some(request) if (request.wrapping_sub(heartbeat) as i32) < 0 => request,
+            _ => heartbeat,
+        })
     }
 
     /// Feeds one received frame through `rx`; a completed message is handled and every

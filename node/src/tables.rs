@@ -237,6 +237,16 @@ impl ControllerNode {
         }
     }
 
+    /// True while the tables' part of `poll` has work for the very next turn: an
+    /// announcement, or a save that is due or running and not held back (a save runs one
+    /// small step a turn; a learning trial or a staged image holds it back until a frame
+    /// changes that).
+    pub(crate) fn tables_want_a_turn(&self) -> bool {
+        let held =
+            self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some();
+        self.tables.announce.is_some() || (self.tables.save != Save::Idle && !held)
+    }
+
     /// The tables' part of `poll`: the boot announcement, a save due by learning steps, one
     /// step of the save in progress.
     pub(crate) fn poll_tables<C: Control + ?Sized>(&mut self, ctrl: &mut C, out: &mut Outbox) {

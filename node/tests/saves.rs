@@ -194,3 +194,49 @@ fn a_node_without_a_store_says_so() {
     assert_eq!((s.stored_sequence, s.steps1), (0, 1));
     assert_eq!(s.image_len as usize, image(&c).len());
 }
+
+/// A loop that sleeps until `poll_timeout` (a board, the host's loops) completes a save
+/// without waiting a heartbeat period between its steps: while a save runs the node is due
+/// at once. Fails when `poll_timeout` ignores the save (each of its hundreds of steps would
+/// wait 100 ms).
+#[test]
+fn a_running_save_makes_the_node_due_at_once() {
+    let (mut n, mut b) = booted_board(53, 2);
+    let mut now = 0u32;
+    poll_until(&mut n, &mut b, &mut now, TablesEvent::Restored, 1).unwrap();
+    send(&mut n, &mut b, session(1, true).into(), now);
+    let training = ModeChange {
+        mode: Mode::Training,
+    };
+    send(&mut n, &mut b, training.into(), now);
+    learning_trial(&mut n, &mut b, 1, &mut now);
+    let mut out = send(
+        &mut n,
+        &mut b,
+        StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        }
+        .into(),
+        now,
+    );
+    let mut turns = 0;
+    while statuses(&out).iter().all(|s| s.event != TablesEvent::Saved) {
+        turns += 1;
+        assert!(turns < 100_000, "the save never ended");
+        let due = n.poll_timeout().expect("timers run");
+        assert!(
+            due.wrapping_sub(now) as i32 <= 0,
+            "a turn {} ms away while a save runs",
+            due.wrapping_sub(now)
+        );
+        out.clear();
+        n.poll(&mut b, now, &mut out);
+    }
+    assert!(turns > 10, "a save is many small steps: {turns}");
+    let idle = n.poll_timeout().unwrap();
+    assert!(
+        idle.wrapping_sub(now) as i32 > 0,
+        "afterwards the next heartbeat"
+    );
+}

@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
 # Installs what the Cortex-M builds and runs need (idempotent): Debian's Rust toolchain with
-# the core sources (rustup here has only the x86_64 std), binutils for arm-none-eabi (the
-# linker and `size`), and qemu-system-arm, unpacked from its .deb into .vm/qemu-arm so that
-# installing it cannot disturb the machine's other QEMU packages (apt-installing it may
-# remove a newer qemu-utils).
+# the core sources and clippy (rustup here has only the x86_64 std), pinned to one version,
+# binutils for arm-none-eabi (the linker and `size`), and qemu-system-arm, unpacked from its
+# .deb into .vm/qemu-arm so that installing it cannot disturb the machine's other QEMU
+# packages (apt-installing it may remove a newer qemu-utils).
+#
+# The cross toolchain is pinned: Debian's rustc-web/cargo-web/rust-web-src/rust-web-clippy
+# $CROSS_RUST (1.96.0, the security suite's; the board images' embassy-stm32 0.6 needs >= 1.88).
+# Another version installed is replaced by it; the script fails if apt cannot provide it.
+# The host's workspace is built by rustup's toolchain, not this one (Cargo.toml rust-version).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 export DEBIAN_FRONTEND=noninteractive
+CROSS_RUST=1.96.0
 
 wait_dpkg() { # another apt/dpkg may hold the lock
     while fuser /var/lib/dpkg/lock-frontend /var/lib/dpkg/lock >/dev/null 2>&1; do sleep 3; done
@@ -26,8 +32,16 @@ apt_install() {
 }
 
 need=()
-[ -x /usr/bin/rustc ] && [ -x /usr/bin/cargo ] || need+=(rustc-web cargo-web)
-[ -d /usr/lib/rustlib/src/rust/library/core ] || need+=(rust-web-src)
+rust_version() { "$1" --version 2>/dev/null | cut -d' ' -f2; }
+package_version() { dpkg-query -W -f='${Version}' "$1" 2>/dev/null | cut -d+ -f1; }
+pinned=1
+for package in rustc-web cargo-web rust-web-src rust-web-clippy; do
+    [ "$(package_version "$package")" = "$CROSS_RUST" ] || pinned=0
+done
+if [ $pinned -eq 0 ] || [ "$(rust_version /usr/bin/rustc)" != "$CROSS_RUST" ]; then
+    need+=("rustc-web=$CROSS_RUST*" "cargo-web=$CROSS_RUST*" "rust-web-src=$CROSS_RUST*"
+        "rust-web-clippy=$CROSS_RUST*" "libstd-rust-web-dev=$CROSS_RUST*")
+fi
 command -v arm-none-eabi-ld >/dev/null || need+=(binutils-arm-none-eabi)
 command -v fuser >/dev/null || need+=(psmisc)
 dpkg -s qemu-system-common >/dev/null 2>&1 || need+=(qemu-system-common qemu-system-data)
@@ -59,4 +73,6 @@ if [ ! -x "$qemu" ]; then
     cd - >/dev/null
 fi
 "$qemu" -machine help | grep -q mps2-an386 || { echo "cross: $qemu has no mps2-an386 board" >&2; exit 1; }
-echo "cross: /usr/bin/rustc $(/usr/bin/rustc --version | cut -d' ' -f2), $(arm-none-eabi-ld --version | head -1), $("$qemu" --version | head -1)"
+[ "$(rust_version /usr/bin/rustc)" = "$CROSS_RUST" ] ||
+    { echo "cross: /usr/bin/rustc is $(rust_version /usr/bin/rustc), not the pinned $CROSS_RUST" >&2; exit 1; }
+echo "cross: /usr/bin/rustc $(rust_version /usr/bin/rustc), $(arm-none-eabi-ld --version | head -1), $("$qemu" --version | head -1)"

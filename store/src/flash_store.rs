@@ -186,7 +186,7 @@ impl<F: NorFlash> FlashStore<F> {
         if !w.is_power_of_two() || w > PROGRAM || !r.is_power_of_two() || r > READ_PIECE {
             return Err(LayoutError::UnitSize);
         }
-        if base % e != 0 || slot_size % e != 0 {
+        if !base.is_multiple_of(e) || !slot_size.is_multiple_of(e) {
             return Err(LayoutError::NotAligned);
         }
         if slot_size < Self::slot_size_needed() {

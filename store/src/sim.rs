@@ -129,7 +129,7 @@ impl<const WRITE: usize, const ERASE: usize> SimFlash<WRITE, ERASE> {
         if !self.powered {
             return Err(SimFlashError::PowerLost);
         }
-        if offset as usize % unit != 0 || len % unit != 0 {
+        if !(offset as usize).is_multiple_of(unit) || !len.is_multiple_of(unit) {
             return Err(SimFlashError::NotAligned);
         }
         if offset as usize + len > self.mem.len() {

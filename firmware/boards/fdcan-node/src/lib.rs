@@ -1,0 +1,31 @@
+//! The TRN controller as a CAN node on an STM32's FDCAN peripheral, with embassy: what the
+//! FDCAN board images share (`firmware/boards/stm32h743`, `stm32g474`).
+//!
+//! - [`bitrate`]: the CAN bit rates of the build (`TRN_CAN_BITRATE`, `TRN_CAN_DATA_BITRATE`)
+//!   and their bit timings for the board's FDCAN kernel clock, checked when the image is built.
+//! - [`start`]: the peripheral configured (bit timings, CAN FD with bit-rate switching,
+//!   transmit FIFO in write order, standard data frames only) and started with interrupt-driven
+//!   receive and transmit buffers.
+//! - [`FdcanPort`]: that driver as an `embedded-can` port of the protocol's frames, the seam
+//!   [`trn_node::ControllerNode::service`] takes.
+//! - [`run`]: the node's loop: a turn of `service`, then sleep until a frame arrives or the
+//!   node's [`trn_node::ControllerNode::poll_timeout`], with embassy-time's clock as `now_ms`;
+//!   it logs each trial with the node's counters and the stack's high-water mark
+//!   ([`stack_high_water_mark`]).
+//!
+//! The controller is configured only by the `SessionConfig` it receives (protocol/SPEC.md
+//! 3.2); until then it holds zeroed tables and refuses targets with an error report.
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bitrate;
+mod fdcan;
+mod port;
+mod run;
+mod stack;
+
+pub use fdcan::{start, Fdcan, KernelClock};
+pub use port::{FdcanPort, PortError};
+pub use run::{now_ms, run, NodeState};
+pub use stack::stack_high_water_mark;

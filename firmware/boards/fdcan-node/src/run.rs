@@ -1,0 +1,98 @@
+//! The node's loop on a board: a turn of `service`, then sleep until a frame arrives or the
+//! node's next timeout, with embassy-time's clock as the node's milliseconds.
+
+use embassy_futures::select::{select, Either};
+use embassy_time::{Duration, Instant, Timer};
+use trn_controller::Controller;
+use trn_node::{ControllerNode, NodeConfig};
+use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
+
+use crate::fdcan::Fdcan;
+use crate::port::FdcanPort;
+
+/// The node's state beside the controller: the node, the frame encoder (CAN 2.0 until a
+/// `SessionConfig` asks for FD) and the reassembler. `const`, all in static RAM
+/// (`static_cell::ConstStaticCell`), none of it on the stack.
+pub struct NodeState {
+    node: ControllerNode,
+    enc: Encoder,
+    rx: Reassembler,
+}
+
+impl NodeState {
+    /// A node in mode `Idle` with the firmware's timing ([`NodeConfig::DEFAULT`]: heartbeats
+    /// every 100 ms, a request repeated up to 8 times, 200 ms apart).
+    pub const fn new() -> Self {
+        NodeState {
+            node: ControllerNode::new(NodeConfig::DEFAULT),
+            enc: Encoder::new(BusMode::Classic),
+            rx: Reassembler::new(DEFAULT_STALE_MS),
+        }
+    }
+}
+
+impl Default for NodeState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The node's clock: milliseconds since boot, wrapping after 49.7 days (the node compares
+/// its times with `wrapping_sub`).
+pub fn now_ms() -> u32 {
+    Instant::now().as_millis() as u32
+}
+
+/// When a node time `at_ms` falls: now if it has passed (or is now).
+fn instant_of(at_ms: u32) -> Instant {
+    let now = Instant::now();
+    let ahead = at_ms.wrapping_sub(now.as_millis() as u32);
+    if ahead == 0 || ahead > u32::MAX / 2 {
+        now
+    } else {
+        now + Duration::from_millis(u64::from(ahead))
+    }
+}
+
+/// Runs the controller node on `can` for ever. Each turn hands every received frame to the
+/// node and runs its timers ([`ControllerNode::service`], the code path of the host and the
+/// QEMU firmware); then the task sleeps until the receive interrupt brings a frame or the
+/// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
+/// the request it waits on). Port errors (bus errors, a full transmit buffer) are logged and
+/// counted; the node's own repeats recover what they cost.
+pub async fn run<const TX: usize, const RX: usize>(
+    can: Fdcan<TX, RX>,
+    ctrl: &mut Controller,
+    state: &mut NodeState,
+) -> ! {
+    let NodeState { node, enc, rx } = state;
+    let mut port = FdcanPort::new(can.reader(), can.writer());
+    let mut port_errors: u32 = 0;
+    let mut trials = 0;
+    loop {
+        if let Err(e) = node.service(ctrl, rx, enc, &mut port, now_ms()) {
+            port_errors = port_errors.wrapping_add(1);
+            defmt::warn!("CAN port: {} ({} so far)", e, port_errors);
+        }
+        if node.stats().trials != trials {
+            trials = node.stats().trials;
+            defmt::info!(
+                "trial {} (trials {}, aborted {}, frame errors {}, retries {}; stack high-water mark {} B)",
+                node.trial(),
+                trials,
+                node.stats().aborted,
+                node.stats().frame_errors,
+                node.stats().retries,
+                crate::stack::stack_high_water_mark()
+            );
+        }
+        // the first turn ran the timers: there is always a next timeout (a heartbeat)
+        let wake = node.poll_timeout().map_or_else(Instant::now, instant_of);
+        if let Either::First(received) = select(port.reader().receive(), Timer::at(wake)).await {
+            if let Err(e) = port.put_back(received) {
+                port_errors = port_errors.wrapping_add(1);
+                defmt::warn!("CAN bus error: {} ({} so far)", e, port_errors);
+            }
+        }
+    }
+}
