@@ -69,8 +69,7 @@ impl Provenance {
     }
 }
 const MAGIC: [u8; 4] = *b"TRNC";
-/// The CRC-32/ISO-HDLC of the format (a `static`: a streamed image keeps a running digest of it).
-static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+use crate::crc::CRC;
 
 /// The checkpoint header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -98,10 +97,7 @@ impl Header {
     }
 }
 
-/// CRC-32/ISO-HDLC of `bytes`.
-pub fn crc32(bytes: &[u8]) -> u32 {
-    CRC.checksum(bytes)
-}
+pub use crate::crc::crc32;
 
 const SHAPE1: [u16; 3] = [1000, 8, 5];
 const SHAPE2: [u16; 3] = [200, 4, 3];

@@ -6,8 +6,8 @@
 use crate::config::Config;
 use crate::controller::{Command, Controller, Observation, Task};
 use crate::error::Result;
-use crate::persist::Tables;
-use crate::stage::FineMoves;
+use crate::persist::TableStore;
+use crate::trial::FineMoves;
 
 /// A controller as the node drives it: tasks and observations in, commands out.
 pub trait Control {
@@ -103,5 +103,58 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
 
     fn tables(&mut self) -> Option<Tables<'_>> {
         (**self).tables()
+    }
+}
+
+/// A controller's tables and, if it has one, the store that keeps them: what
+/// [`Control::tables`] gives a node.
+pub struct Tables<'a> {
+    /// The controller whose tables these are.
+    pub ctrl: &'a mut Controller,
+    /// Where they are kept, if anywhere.
+    pub store: Option<&'a mut dyn TableStore>,
+}
+
+/// A controller and the store of its tables, driven by a node as one [`Control`]: the
+/// firmware passes `WithStore { ctrl: &mut CONTROLLER, store: &mut flash_store }`, a host
+/// `WithStore { ctrl: Box<Controller>, store }`.
+pub struct WithStore<C, S> {
+    /// The controller (`&mut Controller`, `Box<Controller>`).
+    pub ctrl: C,
+    /// Its store.
+    pub store: S,
+}
+
+impl<C, S> Control for WithStore<C, S>
+where
+    C: core::ops::DerefMut<Target = Controller>,
+    S: TableStore,
+{
+    fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command> {
+        self.ctrl.begin_with(task, fine)
+    }
+    fn observe(&mut self, obs: Observation) -> Result<Command> {
+        self.ctrl.observe(obs)
+    }
+    fn abort(&mut self) {
+        self.ctrl.abort()
+    }
+    fn busy(&self) -> bool {
+        self.ctrl.busy()
+    }
+    fn config(&self) -> &Config {
+        self.ctrl.config()
+    }
+    fn set_config(&mut self, cfg: Config) -> Result<()> {
+        self.ctrl.set_config(cfg)
+    }
+    fn init_random(&mut self, seed: u64) {
+        self.ctrl.init_random(seed)
+    }
+    fn tables(&mut self) -> Option<Tables<'_>> {
+        Some(Tables {
+            ctrl: &mut self.ctrl,
+            store: Some(&mut self.store),
+        })
     }
 }

@@ -5,8 +5,10 @@ use crate::broyden::BroydenPair;
 use crate::broyden::BroydenStage;
 use crate::config::{Config, Law};
 use crate::error::{Error, Result};
+use crate::law::StageLaw;
 use crate::rank::RankScratch;
-use crate::stage::{FineMoves, Stage, StageOutcome, StageStep};
+use crate::stage::Stage;
+use crate::trial::{FineMoves, StageOutcome, StageStep, ZERO_OUTCOME};
 
 /// Ranks that carry weight in the averages and updates (see [`crate::rules`]).
 pub const RANKS: usize = 128;
@@ -166,7 +168,7 @@ impl Controller {
             scratch: RankScratch::new(),
             running: Running::Idle,
             grasp_c: [0.0; 4],
-            stage1_outcome: crate::stage::ZERO_OUTCOME,
+            stage1_outcome: ZERO_OUTCOME,
             stage1_done: false,
             held: [0.0; JOINTS],
             fine: FineMoves::Policy,
@@ -264,9 +266,8 @@ impl Controller {
 
     /// Abandons the running task.
     pub fn abort(&mut self) {
-        self.stage1.abort();
-        self.stage2.abort();
-        self.broyden.abort();
+        self.law1().0.abort();
+        self.law2().0.abort();
         self.running = Running::Idle;
     }
 
@@ -297,10 +298,7 @@ impl Controller {
             Task::Stage2 { c, learn } => self.begin2(&c, learn),
             Task::Grasp { v, c, learn } => {
                 // validate the stage-2 target now, so a bad one fails before the arm moves
-                match self.cfg.law {
-                    Law::Trn | Law::Model | Law::Oracle => self.stage2.check_input(&c)?,
-                    Law::Broyden => self.broyden.check_input2(&c)?,
-                }
+                self.law2().0.check_input(&c)?;
                 let p = self.begin1(&v, None, learn)?;
                 self.grasp_c = c;
                 self.running = Running::GraspStage1;
@@ -309,45 +307,41 @@ impl Controller {
         }
     }
 
-    /// Stage 1's first move under the configured law (the Broyden servo does not train:
-    /// it ignores `supervised` and `learn`).
+    /// Stage 1's law under the configured law, and the ranking memory the stages share
+    /// (the one place the controller picks a law; the host-only laws never get here:
+    /// `set_config` refuses them).
+    fn law1(&mut self) -> (&mut dyn StageLaw<8, 5>, &mut RankScratch) {
+        match self.cfg.law {
+            Law::Broyden => (self.broyden.law1(), &mut self.scratch),
+            Law::Trn | Law::Model | Law::Oracle => (&mut self.stage1, &mut self.scratch),
+        }
+    }
+
+    /// Stage 2's law, as [`Controller::law1`].
+    fn law2(&mut self) -> (&mut dyn StageLaw<4, 3>, &mut RankScratch) {
+        match self.cfg.law {
+            Law::Broyden => (self.broyden.law2(), &mut self.scratch),
+            Law::Trn | Law::Model | Law::Oracle => (&mut self.stage2, &mut self.scratch),
+        }
+    }
+
+    /// Stage 1's first move under the configured law (a law that does not train ignores
+    /// `supervised` and `learn`).
     fn begin1(
         &mut self,
         v: &[f32; 8],
         supervised: Option<&[f32; 5]>,
         learn: bool,
     ) -> Result<[f32; 5]> {
-        match self.cfg.law {
-            Law::Trn | Law::Model | Law::Oracle => {
-                self.stage1
-                    .begin_with(v, supervised, learn, self.fine, &mut self.scratch)
-            }
-            Law::Broyden => self.broyden.begin1(v, supervised.is_some(), self.fine),
-        }
-    }
-
-    fn observe1(&mut self, v: &[f32; 8]) -> Result<StageStep<5>> {
-        match self.cfg.law {
-            Law::Trn | Law::Model | Law::Oracle => self.stage1.observe(v),
-            Law::Broyden => self.broyden.observe1(v),
-        }
-    }
-
-    fn observe2(&mut self, c: &[f32; 4]) -> Result<StageStep<3>> {
-        match self.cfg.law {
-            Law::Trn | Law::Model | Law::Oracle => self.stage2.observe(c),
-            Law::Broyden => self.broyden.observe2(c),
-        }
+        let fine = self.fine;
+        let (law, scratch) = self.law1();
+        law.begin(v, supervised, learn, fine, scratch)
     }
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
-        let p = match self.cfg.law {
-            Law::Trn | Law::Model | Law::Oracle => {
-                self.stage2
-                    .begin_with(c, None, learn, self.fine, &mut self.scratch)?
-            }
-            Law::Broyden => self.broyden.begin2(c, self.fine)?,
-        };
+        let fine = self.fine;
+        let (law, scratch) = self.law2();
+        let p = law.begin(c, None, learn, fine, scratch)?;
         self.running = Running::Stage2;
         Ok(self.move2(p))
     }
@@ -380,7 +374,7 @@ impl Controller {
                 } else {
                     None
                 };
-                match self.observe1(&v)? {
+                match self.law1().0.observe(&v)? {
                     StageStep::Move(p) => Ok(self.move1(p)),
                     StageStep::Done(o) => {
                         self.stage1_outcome = o;
@@ -401,7 +395,7 @@ impl Controller {
                     }
                 }
             }
-            (Running::Stage2, Observation::Centre(c)) => match self.observe2(&c)? {
+            (Running::Stage2, Observation::Centre(c)) => match self.law2().0.observe(&c)? {
                 StageStep::Move(p) => Ok(self.move2(p)),
                 StageStep::Done(o) => Ok(self.done(Some(o))),
             },

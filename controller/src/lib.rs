@@ -11,6 +11,11 @@
 //! ([`Controller::begin`], [`Controller::observe`]). The same code serves supervised
 //! priming, unsupervised training, mature operation and the two-stage grasp.
 //!
+//! Modules, from the leaves up (no module imports one that imports it back):
+//! - [`config`], `crc`, [`entry`], [`error`]: numbers, the checksum, what a table stores,
+//!   the errors.
+//! - [`trial`]: what every stage law shares (a trial's outcome, its next step, the fine-move
+//!   rule, the input check); [`law`]: the [`law::StageLaw`] trait a stage's law implements.
 //! - [`rank`]: closeness ranking (8.2-8.4), full sort or partial selection.
 //! - [`rules`]: the averaged output and every update (8.5-8.30), with the deviations named.
 //! - [`stage`]: one network's learning step as a state machine (coarse move, fine moves
@@ -21,6 +26,9 @@
 //! - [`persist`]: what a node asks of the store that keeps the tables ([`persist::TableStore`]).
 //! - [`broyden`]: the classical alternative without training (uncalibrated visual servoing
 //!   with a Broyden Jacobian), selectable in place of the TRN ([`Law`]).
+//! - [`Controller`]: the two-stage grasp over the laws (it picks a stage's law in one
+//!   place); [`Control`]: the seam to the CAN node, with [`WithStore`] (a controller and its
+//!   store as one).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -34,20 +42,23 @@ pub mod checkpoint;
 pub mod config;
 mod control;
 mod controller;
+mod crc;
 pub mod entry;
 mod error;
 #[cfg(all(target_arch = "arm", target_abi = "eabihf", not(feature = "compact")))]
 #[allow(unsafe_code)]
 mod kernels;
+pub mod law;
 pub mod net;
 pub mod persist;
 pub mod presets;
 pub mod rank;
 pub mod rules;
 pub mod stage;
+pub mod trial;
 
 pub use config::{Config, Law, StageConfig};
-pub use control::Control;
+pub use control::{Control, Tables, WithStore};
 pub use controller::{
     Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, JOINTS, RANKS,
 };

@@ -1,23 +1,11 @@
 //! The seam between a controller node and the place that keeps its learned tables (a
 //! microcontroller's flash, a file, memory): [`TableStore`], the operations a node asks of a
-//! store, each with its own error enum, and [`WithStore`], a controller and its store handed
-//! to the node as one [`Control`] (the node reaches both through [`Control::tables`]).
+//! store, each with its own error enum. A controller and its store reach the node as one
+//! [`crate::Control`] ([`crate::control::WithStore`], [`crate::Control::tables`]).
 
 use crate::checkpoint::{Header, Provenance};
-use crate::config::Config;
-use crate::control::Control;
-use crate::controller::{Command, Controller, Observation, Task};
-use crate::error::{Error, Result};
-use crate::stage::FineMoves;
-
-/// A controller's tables and, if it has one, the store that keeps them: what
-/// [`Control::tables`] gives a node.
-pub struct Tables<'a> {
-    /// The controller whose tables these are.
-    pub ctrl: &'a mut Controller,
-    /// Where they are kept, if anywhere.
-    pub store: Option<&'a mut dyn TableStore>,
-}
+use crate::controller::Controller;
+use crate::error::Error;
 
 /// A complete stored copy of the tables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -183,49 +171,5 @@ impl<S: TableStore + ?Sized> TableStore for &mut S {
     }
     fn erase(&mut self) -> core::result::Result<(), EraseError> {
         (**self).erase()
-    }
-}
-
-/// A controller and the store of its tables, driven by a node as one [`Control`]: the
-/// firmware passes `WithStore { ctrl: &mut CONTROLLER, store: &mut flash_store }`, a host
-/// `WithStore { ctrl: Box<Controller>, store }`.
-pub struct WithStore<C, S> {
-    /// The controller (`&mut Controller`, `Box<Controller>`).
-    pub ctrl: C,
-    /// Its store.
-    pub store: S,
-}
-
-impl<C, S> Control for WithStore<C, S>
-where
-    C: core::ops::DerefMut<Target = Controller>,
-    S: TableStore,
-{
-    fn begin_with(&mut self, task: Task, fine: FineMoves) -> Result<Command> {
-        self.ctrl.begin_with(task, fine)
-    }
-    fn observe(&mut self, obs: Observation) -> Result<Command> {
-        self.ctrl.observe(obs)
-    }
-    fn abort(&mut self) {
-        self.ctrl.abort()
-    }
-    fn busy(&self) -> bool {
-        self.ctrl.busy()
-    }
-    fn config(&self) -> &Config {
-        self.ctrl.config()
-    }
-    fn set_config(&mut self, cfg: Config) -> Result<()> {
-        self.ctrl.set_config(cfg)
-    }
-    fn init_random(&mut self, seed: u64) {
-        self.ctrl.init_random(seed)
-    }
-    fn tables(&mut self) -> Option<Tables<'_>> {
-        Some(Tables {
-            ctrl: &mut self.ctrl,
-            store: Some(&mut self.store),
-        })
     }
 }

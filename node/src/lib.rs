@@ -12,7 +12,7 @@
 //! The node guards its learned tables against destructive operations that do not carry a
 //! fresh nonce ([`ControllerNode::seed_guard`], `guard.rs`), and serves them over the bus
 //! and to their store (`tables.rs`; a controller with a store is a
-//! [`trn_controller::persist::WithStore`]).
+//! [`trn_controller::WithStore`]).
 //!
 //! One trial on the bus is specified in `protocol/SPEC.md`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]

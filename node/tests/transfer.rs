@@ -6,7 +6,8 @@
 mod common;
 
 use common::*;
-use trn_controller::persist::{TableStore, WithStore};
+use trn_controller::persist::TableStore;
+use trn_controller::WithStore;
 use trn_node::codes;
 use trn_protocol::bus::{FaultConfig, InProcBus, InProcPort};
 use trn_protocol::{

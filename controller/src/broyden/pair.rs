@@ -1,14 +1,15 @@
 //! The Broyden servo's two stages as the controller holds them; without the cargo feature
-//! `broyden`, a stand-in of no size that refuses the law ([`Error::UnsupportedLaw`]).
+//! `broyden`, a stand-in of no size whose stages refuse every trial
+//! ([`crate::Error::UnsupportedLaw`]).
 
 use super::BroydenConfig;
 #[cfg(feature = "broyden")]
 use super::BroydenStage;
 use crate::config::StageConfig;
-#[cfg(not(feature = "broyden"))]
-use crate::error::Error;
 use crate::error::Result;
-use crate::stage::{FineMoves, StageStep};
+#[cfg(not(feature = "broyden"))]
+use crate::law::Absent;
+use crate::law::StageLaw;
 
 /// Stage 1 (8-D lights, 5 joints) and stage 2 (4-D centre, 3 joints) of the servo.
 #[cfg(feature = "broyden")]
@@ -18,10 +19,12 @@ pub(crate) struct BroydenPair {
     pub(crate) stage2: BroydenStage<4, 3>,
 }
 
-/// The servo left out of the build: every call that would run it fails.
+/// The servo left out of the build: its stages refuse every trial.
 #[cfg(not(feature = "broyden"))]
 #[derive(Debug, Clone)]
-pub(crate) struct BroydenPair;
+pub(crate) struct BroydenPair {
+    absent: Absent,
+}
 
 #[cfg(feature = "broyden")]
 impl BroydenPair {
@@ -50,34 +53,14 @@ impl BroydenPair {
         self.stage2.set_config(s2, b)
     }
 
-    pub(crate) fn abort(&mut self) {
-        self.stage1.abort();
-        self.stage2.abort();
+    /// Stage 1's law.
+    pub(crate) fn law1(&mut self) -> &mut dyn StageLaw<8, 5> {
+        &mut self.stage1
     }
 
-    pub(crate) fn check_input2(&self, c: &[f32; 4]) -> Result<()> {
-        self.stage2.check_input(c)
-    }
-
-    pub(crate) fn begin1(
-        &mut self,
-        v: &[f32; 8],
-        supervised: bool,
-        fine: FineMoves,
-    ) -> Result<[f32; 5]> {
-        self.stage1.begin_with(v, supervised, fine)
-    }
-
-    pub(crate) fn observe1(&mut self, v: &[f32; 8]) -> Result<StageStep<5>> {
-        self.stage1.observe(v)
-    }
-
-    pub(crate) fn begin2(&mut self, c: &[f32; 4], fine: FineMoves) -> Result<[f32; 3]> {
-        self.stage2.begin_with(c, false, fine)
-    }
-
-    pub(crate) fn observe2(&mut self, c: &[f32; 4]) -> Result<StageStep<3>> {
-        self.stage2.observe(c)
+    /// Stage 2's law.
+    pub(crate) fn law2(&mut self) -> &mut dyn StageLaw<4, 3> {
+        &mut self.stage2
     }
 }
 
@@ -87,7 +70,7 @@ impl BroydenPair {
     pub(crate) const BUILT: bool = false;
 
     pub(crate) const fn new(_s1: StageConfig, _s2: StageConfig, _b: BroydenConfig) -> Self {
-        BroydenPair
+        BroydenPair { absent: Absent }
     }
 
     pub(crate) fn reset(&mut self) {}
@@ -101,30 +84,13 @@ impl BroydenPair {
         Ok(())
     }
 
-    pub(crate) fn abort(&mut self) {}
-
-    pub(crate) fn check_input2(&self, _c: &[f32; 4]) -> Result<()> {
-        Err(Error::UnsupportedLaw)
+    /// Stage 1's law: absent.
+    pub(crate) fn law1(&mut self) -> &mut dyn StageLaw<8, 5> {
+        &mut self.absent
     }
 
-    pub(crate) fn begin1(
-        &mut self,
-        _v: &[f32; 8],
-        _supervised: bool,
-        _fine: FineMoves,
-    ) -> Result<[f32; 5]> {
-        Err(Error::UnsupportedLaw)
-    }
-
-    pub(crate) fn observe1(&mut self, _v: &[f32; 8]) -> Result<StageStep<5>> {
-        Err(Error::UnsupportedLaw)
-    }
-
-    pub(crate) fn begin2(&mut self, _c: &[f32; 4], _fine: FineMoves) -> Result<[f32; 3]> {
-        Err(Error::UnsupportedLaw)
-    }
-
-    pub(crate) fn observe2(&mut self, _c: &[f32; 4]) -> Result<StageStep<3>> {
-        Err(Error::UnsupportedLaw)
+    /// Stage 2's law: absent.
+    pub(crate) fn law2(&mut self) -> &mut dyn StageLaw<4, 3> {
+        &mut self.absent
     }
 }

@@ -6,8 +6,10 @@ use nalgebra::{SMatrix, SVector};
 use super::BroydenConfig;
 use crate::config::StageConfig;
 use crate::error::{Error, Result};
+use crate::law::StageLaw;
+use crate::rank::RankScratch;
 use crate::rules::clamp;
-use crate::stage::{
+use crate::trial::{
     check_input, distance, sub, FineMoves, StageOutcome, StageStep, TRACE_LEN, ZERO_OUTCOME,
 };
 
@@ -292,6 +294,30 @@ impl<const D: usize, const M: usize> BroydenStage<D, M> {
         };
         let q = core::array::from_fn(|c| self.q_last[c] + scale * dq[c]);
         clamp(&q, limit)
+    }
+}
+
+/// The Broyden servo is a stage law that never learns: `learn` and a supervised pressure
+/// change nothing (a supervised trial is reported as such); it needs no shared memory.
+impl<const D: usize, const M: usize> StageLaw<D, M> for BroydenStage<D, M> {
+    fn check_input(&self, u: &[f32; D]) -> Result<()> {
+        BroydenStage::check_input(self, u)
+    }
+    fn begin(
+        &mut self,
+        target: &[f32; D],
+        supervised: Option<&[f32; M]>,
+        _learn: bool,
+        fine: FineMoves,
+        _scratch: &mut RankScratch,
+    ) -> Result<[f32; M]> {
+        self.begin_with(target, supervised.is_some(), fine)
+    }
+    fn observe(&mut self, u: &[f32; D]) -> Result<StageStep<M>> {
+        BroydenStage::observe(self, u)
+    }
+    fn abort(&mut self) {
+        BroydenStage::abort(self)
     }
 }
 

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use trn_controller::checkpoint::{self, Provenance};
-use trn_controller::persist::WithStore;
+use trn_controller::WithStore;
 use trn_controller::{Command, Config, Controller, Observation, Task};
 use trn_node::{ControllerNode, NodeConfig, Outbox};
 use trn_protocol::{

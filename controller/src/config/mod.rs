@@ -4,7 +4,9 @@
 //! `READING-NOTES.md` fixed: normalised averages). [`Config::project_default`] holds the
 //! project's defaults; each deviation is named and justified on the field it changes.
 
-use crate::broyden::BroydenConfig;
+mod broyden;
+
+pub use broyden::{BroydenConfig, ZERO_BROYDEN};
 use libm::{expf, sqrtf};
 
 /// How a learning rate decays with the learning step `t`.
@@ -461,7 +463,7 @@ impl Config {
             stage2: ZERO_STAGE,
             supervised_steps: 0,
             law: Law::Trn,
-            broyden: crate::broyden::ZERO_CONFIG,
+            broyden: ZERO_BROYDEN,
         }
     }
 }
@@ -473,7 +475,7 @@ impl Config {
     pub fn fingerprint(&self) -> u32 {
         let mut buf = [0u8; 512];
         match postcard::to_slice(self, &mut buf) {
-            Ok(bytes) => crate::checkpoint::crc32(bytes),
+            Ok(bytes) => crate::crc::crc32(bytes),
             // cannot happen: the encoding is about 200 bytes
             Err(_) => 0,
         }
