@@ -12,7 +12,7 @@
 //! priming, unsupervised training, mature operation and the two-stage grasp.
 //!
 //! Modules, from the leaves up (no module imports one that imports it back):
-//! - [`config`], `crc`, [`entry`], [`error`]: numbers, the checksum, what a table stores,
+//! - [`config`], `crc`, [`entry`], `error` ([`Error`]): numbers, the checksum, what a table stores,
 //!   the errors.
 //! - [`trial`]: what every stage law shares (a trial's outcome, its next step, the fine-move
 //!   rule, the input check); [`law`]: the [`law::StageLaw`] trait a stage's law implements.
