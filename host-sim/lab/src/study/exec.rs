@@ -172,6 +172,8 @@ fn resumable(study: &Study, job: &Job, path: &Path, watch: &dyn Watch) -> Option
     if !file.is_run_of(job) {
         let why = if file.report.interrupted {
             "an interrupted run"
+        } else if file.study.build != super::BUILD {
+            "a run of another build"
         } else {
             "another run specification"
         };

@@ -31,6 +31,19 @@ use crate::spec::RunSpec;
 pub use exec::{execute, Options, Outcome, Watch};
 pub use runfile::RunFile;
 
+/// What built the runs: the lab's version and the controller's tables. Two builds of the
+/// same version with other code give other results too: `--resume` and `trn merge` trust
+/// that the run files come from the code that runs now.
+pub const BUILD: &str = if cfg!(feature = "compact") {
+    concat!(
+        "trn-lab ",
+        env!("CARGO_PKG_VERSION"),
+        ", i16 tables (compact)"
+    )
+} else {
+    concat!("trn-lab ", env!("CARGO_PKG_VERSION"), ", f32 tables")
+};
+
 /// The table a study's results make.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -73,6 +86,9 @@ pub struct StudyHeader {
     pub table: Table,
     /// Runs in the whole study (every shard).
     pub runs: usize,
+    /// The build that ran it ([`BUILD`]): the i16 tables of the compact build give other
+    /// results than the f32 build's, so neither resumes nor merges with the other's runs.
+    pub build: String,
     /// A digest of every job (row, seed, profile, plant, plan, bus): two files belong to the
     /// same study if and only if their digests agree.
     pub digest: String,
@@ -136,7 +152,7 @@ impl Study {
             .enumerate()
             .map(|(index, (row, spec))| Job { index, row, spec })
             .collect();
-        let mut text = format!("{name}\n{table:?}\n{lifelong:?}\n");
+        let mut text = format!("{name}\n{table:?}\n{lifelong:?}\n{BUILD}\n");
         for j in &jobs {
             text.push_str(&format!(
                 "{}\t{}\t{}\n",
@@ -150,6 +166,7 @@ impl Study {
                 name: name.to_string(),
                 table,
                 runs: jobs.len(),
+                build: BUILD.to_string(),
                 digest: digest(&text),
                 lifelong,
             },

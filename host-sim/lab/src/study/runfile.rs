@@ -44,9 +44,12 @@ impl RunFile {
         }
     }
 
-    /// Whether this is `job`'s finished run: the same run specification, not interrupted.
+    /// Whether this is `job`'s finished run: the same run specification, not interrupted,
+    /// run by this build ([`super::BUILD`]).
     pub fn is_run_of(&self, job: &Job) -> bool {
-        !self.report.interrupted && self.report.spec.as_ref() == Some(&job.spec)
+        !self.report.interrupted
+            && self.report.spec.as_ref() == Some(&job.spec)
+            && self.study.build == super::BUILD
     }
 
     /// Its JSON.
