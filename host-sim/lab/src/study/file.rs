@@ -499,9 +499,11 @@ fn walk_mut(
                 Some(v) => go(v, rest, key, path, f),
                 None => Err(err),
             },
-            Value::Array(a) if *part == "*" => {
-                a.iter_mut().try_for_each(|v| go(v, rest, key, path, f))
-            }
+            Value::Array(a) if *part == "*" => a.iter_mut().enumerate().try_for_each(|(i, v)| {
+                // errors below name the element
+                *path.last_mut().expect("pushed") = i.to_string();
+                go(v, rest, key, path, f)
+            }),
             Value::Array(a) => match part.parse::<usize>().ok().and_then(|i| a.get_mut(i)) {
                 Some(v) => go(v, rest, key, path, f),
                 None => Err(err),
