@@ -29,15 +29,16 @@ pub enum Cmd {
     /// Full two-stage grasps of random cylinders from a checkpoint.
     Grasp(EvalArgs),
     /// Run the paper/project presets, the ablations and the baselines over several seeds
-    /// (the README's table).
+    /// (the README's table; the rows of studies/compare.toml, built in).
     Compare(CompareArgs),
     /// The conformance suite (protocol/SPEC.md): drives the controller on the bus (the
     /// project's node, or with --external-controller whatever controller is on the bus)
     /// through every trial sequence and checks its answers; fails if any check fails.
     Conformance(ConformanceArgs),
-    /// The project preset on a built-in list of plant variants (hysteresis width, camera
-    /// noise, coupling, creep, process noise, a skewed loop, outliers, damping), each
-    /// changed alone from the base configuration, seeds from 100: how the result degrades.
+    /// The project preset on the plant variants of studies/sweep.toml (built in: hysteresis
+    /// width, camera noise, coupling, creep, process noise, a skewed loop, outliers,
+    /// damping), each changed alone from the base configuration, seeds from 100: how the
+    /// result degrades.
     Sweep(SweepArgs),
     /// Life-long learning under temperature drift and wear: thousands of trials with frozen
     /// snapshot evaluations (held-out targets and grasps), for the network frozen after its
