@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Regenerates every table and picture of the README from the code, on seeds from 100 up
 # (tuning uses seeds 1-99 only), and rewrites the README's generated sections in place.
-#   bash scripts/results.sh          the full set (about 20 minutes on 2 cores; 40 when the
-#                                    studies ran one run after another)
+#   bash scripts/results.sh          the full set (about 25 minutes on 2 cores, estimated
+#                                    from the studies' measured 0.55-0.6x; 40 when they ran
+#                                    one run after another)
 #   bash scripts/results.sh --resume the same, keeping the runs an interrupted call finished
 #   bash scripts/results.sh --check  the test suite's shortened check: 3 seeds of the project
 #                                    preset; fails when a headline figure leaves the band
