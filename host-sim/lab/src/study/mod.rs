@@ -16,6 +16,7 @@
 
 pub mod exec;
 pub mod file;
+mod keys;
 mod lenient;
 pub mod runfile;
 pub mod stats;
