@@ -3,7 +3,7 @@
 //!
 //! - A [`Study`] is a list of [`Job`]s: a run specification and the row of the table it
 //!   belongs to, in a fixed order (configurations, then seeds). It comes from a study file
-//!   ([`file`]: grid axes over plant keys, presets, ablations, laws, seeds, the evaluation's
+//!   ([`file`](mod@file): grid axes over plant keys, presets, ablations, laws, seeds, the evaluation's
 //!   size) or from a command's options ([`crate::lifelong`]).
 //! - [`exec::execute`] runs the jobs on a pool of worker threads (rayon), each run built and
 //!   run inside its worker on its own seed, plant and controller: the results are the same
