@@ -1,33 +1,46 @@
 #!/usr/bin/env bash
 # Regenerates every table and picture of the README from the code, on seeds from 100 up
 # (tuning uses seeds 1-99 only), and rewrites the README's generated sections in place.
-#   bash scripts/results.sh          the full set (about 45 minutes on 2 cores)
+#   bash scripts/results.sh          the full set (about 25 minutes on 2 cores, estimated
+#                                    from the studies' measured 0.55-0.6x; 40 when they ran
+#                                    one run after another)
+#   bash scripts/results.sh --resume the same, keeping the runs an interrupted call finished
 #   bash scripts/results.sh --check  the test suite's shortened check: 3 seeds of the project
 #                                    preset; fails when a headline figure leaves the band
 #                                    (mean +- 4 sd over 10 seeds) in docs/results/bands.json
+# Every study runs its runs on all cores (`--jobs`, default: the number of cores; the results
+# do not depend on it) and writes each finished run to out/runs/STUDY/ at once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet -p trn-sim --bins
 trn=./target/release/trn
 res=docs/results
+runs=out/runs
 mkdir -p "$res" out
-if [ "${1:-}" = "--check" ]; then
-    "$trn" compare --seeds 3 --project-only --report out/band-check.json > out/band-check.md
+resume=()
+case "${1:-}" in
+--check)
+    "$trn" compare --seeds 3 --project-only --runs "$runs/band-check" \
+        --report out/band-check.json > out/band-check.md
     exec python3 scripts/bands.py check "$res/bands.json" out/band-check.json
-fi
+    ;;
+--resume) resume=(--resume) ;;
+"") ;;
+*) echo "usage: $0 [--check | --resume]" >&2; exit 2 ;;
+esac
 # the main job's run and figure (seed 100)
 "$trn" train --seed 100 --quiet --report "$res/train-seed100.json" --plot docs/train-seed100.png \
     > "$res/train-seed100.txt"
 { echo '```'; sed '/^wall time/d; /^$/d' "$res/train-seed100.txt"; echo '```'; } > "$res/train-seed100.md"
 # presets and ablations, 10 seeds from 100
-"$trn" compare --seeds 10 --report "$res/compare.json" > "$res/compare.md"
+"$trn" compare --seeds 10 --runs "$runs/compare" "${resume[@]}" --report "$res/compare.json" > "$res/compare.md"
 python3 scripts/bands.py record "$res/compare.json" "$res/bands.json"
 # the plant variants, 3 seeds from 100 (issue 14)
-"$trn" sweep --seeds 3 --out "$res/sweep" > "$res/sweep.md"
+"$trn" sweep --seeds 3 --out "$res/sweep" --runs "$runs/sweep" "${resume[@]}" > "$res/sweep.md"
 # the compact build (i16 tables) against the f32 build, seeds 100-109 (issue 18)
-bash scripts/compact.sh
+bash scripts/compact.sh "${resume[@]}"
 # life-long learning under drift and wear, seed 100 (issue 17)
-"$trn" lifelong --seed 100 --out "$res/lifelong" > "$res/lifelong.md"
+"$trn" lifelong --seed 100 --out "$res/lifelong" --runs "$runs/lifelong" "${resume[@]}" > "$res/lifelong.md"
 mv "$res/lifelong/lifelong.png" docs/lifelong-seed100.png
 python3 scripts/readme_sections.py README.md "$res"
 echo "results: README.md, docs/train-seed100.png and $res/ regenerated"

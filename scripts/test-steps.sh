@@ -9,6 +9,12 @@ main_job() {
 step main-job main_job
 # The README's headline figures: 3 seeds, each within mean +- 4 sd of the recorded 10 seeds.
 step results-bands bash scripts/results.sh --check
+# Studies beyond one machine, against the unsharded study on a tiny comparison: the SLURM
+# job array's shard arithmetic and its tasks merged (~15 s); cluster/ray_study.py's shards
+# as Ray tasks on a local Ray (installs Ray 2.60.0 into out/ray-venv on first use: about
+# 70 MB downloaded, 285 MB installed, 2 minutes; then about a minute).
+step cluster-slurm bash scripts/cluster-test.sh slurm
+step cluster-ray bash scripts/cluster-test.sh ray
 step dbc-interop bash protocol/tools/check_dbc.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
 prune_if_low protocol/fuzz/target

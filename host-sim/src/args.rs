@@ -8,7 +8,13 @@ use trn_lab::sweep::SweepSpec;
 use trn_lab::{BusChoice, Command, LabError, Outputs, Profile, RunSpec};
 use trn_transport::BusSpec;
 
-use crate::cli::{Common, CompareArgs, EvalArgs, LifelongArgs, SweepArgs, TrainArgs};
+use trn_lab::study::file::{Overrides, StudyFile};
+use trn_lab::study::{self, Study};
+
+use crate::cli::{
+    Common, CompareArgs, EvalArgs, LifelongArgs, StudyArgs, StudyOpts, StudyOverrides, SweepArgs,
+    TrainArgs,
+};
 
 /// Training trials per network when `--trials` is not given.
 pub const DEFAULT_TRIALS: usize = 300;
@@ -82,15 +88,48 @@ impl EvalArgs {
     }
 }
 
+impl StudyOverrides {
+    /// The overrides of a study file, with the base plant `plant`.
+    pub fn overrides(&self, plant: Option<&str>) -> Overrides {
+        Overrides {
+            configs: self.configs.clone(),
+            seeds: self.seeds,
+            plant: plant.map(str::to_string),
+            trials: self.trials.map(count),
+            eval_targets: self.eval_targets.map(count),
+            grasps: self.grasps.map(count),
+        }
+    }
+}
+
+impl StudyOpts {
+    /// How the study runs; its run folder `OUT/runs` unless `--runs` names one.
+    pub fn options(&self, out: &std::path::Path) -> study::Options {
+        study::Options {
+            jobs: self.jobs.map_or_else(cores, count),
+            runs: self.runs.clone().unwrap_or_else(|| out.join("runs")),
+            resume: self.resume,
+            shard: self.shard,
+        }
+    }
+}
+
+/// The cores of this machine (1 when unknown).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 impl CompareArgs {
     /// The study of `trn compare`.
     pub fn spec(&self) -> CompareSpec {
+        let mut over = self.over.overrides(self.config.as_deref());
+        if self.project_only {
+            over.configs = vec!["project".into()];
+        }
         CompareSpec {
-            seeds: self.seeds,
-            trials: count(self.trials),
-            project_only: self.project_only,
-            config: self.config.clone(),
-            report: self.report.clone(),
+            study: self.study.clone(),
+            over,
+            out: self.out.clone(),
         }
     }
 }
@@ -99,11 +138,35 @@ impl SweepArgs {
     /// The study of `trn sweep`.
     pub fn spec(&self) -> SweepSpec {
         SweepSpec {
-            seeds: self.seeds,
-            trials: count(self.trials),
-            config: self.config.clone(),
+            study: self.study.clone(),
+            over: self.over.overrides(self.config.as_deref()),
             out: self.out.clone(),
         }
+    }
+}
+
+impl StudyArgs {
+    /// The study of `trn study FILE`, where its outputs go (`out`) and its JSON.
+    pub fn study(&self) -> Result<(Study, std::path::PathBuf, std::path::PathBuf), LabError> {
+        let file = StudyFile::read(&self.file)?;
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| std::path::Path::new("out").join(study::slug(&file.name)));
+        let dir = match self.file.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => ".".into(),
+        };
+        let s = file.study(
+            &dir,
+            &self.over.overrides(self.config.as_deref()),
+            Some(&out),
+        )?;
+        let json = self
+            .report
+            .clone()
+            .unwrap_or_else(|| out.join(format!("{}.json", study::slug(&file.name))));
+        Ok((s, out, json))
     }
 }
 

@@ -29,20 +29,114 @@ pub enum Cmd {
     /// Full two-stage grasps of random cylinders from a checkpoint.
     Grasp(EvalArgs),
     /// Run the paper/project presets, the ablations and the baselines over several seeds
-    /// (the README's table).
+    /// (the README's table; the rows of studies/compare.toml, built in).
     Compare(CompareArgs),
     /// The conformance suite (protocol/SPEC.md): drives the controller on the bus (the
     /// project's node, or with --external-controller whatever controller is on the bus)
     /// through every trial sequence and checks its answers; fails if any check fails.
     Conformance(ConformanceArgs),
-    /// The project preset on a built-in list of plant variants (hysteresis width, camera
-    /// noise, coupling, creep, process noise, a skewed loop, outliers, damping), each
-    /// changed alone from the base configuration, seeds from 100: how the result degrades.
+    /// The project preset on the plant variants of studies/sweep.toml (built in: hysteresis
+    /// width, camera noise, coupling, creep, process noise, a skewed loop, outliers,
+    /// damping), each changed alone from the base configuration, seeds from 100: how the
+    /// result degrades.
     Sweep(SweepArgs),
     /// Life-long learning under temperature drift and wear: thousands of trials with frozen
     /// snapshot evaluations (held-out targets and grasps), for the network frozen after its
     /// initial training, the project preset, the lifelong preset and the Broyden servo.
     Lifelong(LifelongArgs),
+    /// Any study file (rows, grid axes over sim.toml keys, presets, ablations, laws, seeds,
+    /// the evaluation's size; see studies/compare.toml): its runs in parallel, its table
+    /// and JSON.
+    Study(StudyArgs),
+    /// The table and JSON of a study from its run files (of every shard: `--shard I/N`),
+    /// as the unsharded command makes them.
+    Merge(MergeArgs),
+}
+
+/// Options of every command that runs a study of many runs.
+#[derive(Debug, Args, Clone)]
+pub struct StudyOpts {
+    /// Runs at once (default: the number of cores). Each run is single-threaded; the
+    /// results are the same for any number.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    pub jobs: Option<u64>,
+    /// Skip the runs whose file is already in the run folder with the same run
+    /// specification (a file cut short, or of another specification, is run again).
+    #[arg(long)]
+    pub resume: bool,
+    /// Run only shard I of N (0 <= I < N: the runs whose index is I modulo N) and write
+    /// their files; `trn merge` makes the table of every shard's files.
+    #[arg(long, value_parser = shard)]
+    pub shard: Option<trn_lab::study::Shard>,
+    /// The run folder: one JSON file per finished run (default: OUT/runs).
+    #[arg(long)]
+    pub runs: Option<PathBuf>,
+    /// No progress (neither the bar nor a line per run).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn shard(s: &str) -> Result<trn_lab::study::Shard, String> {
+    s.parse()
+}
+
+/// What a study file's command line may change.
+#[derive(Debug, Args, Clone)]
+pub struct StudyOverrides {
+    /// Only these rows (comma-separated keys of the study's rows).
+    #[arg(long, value_delimiter = ',')]
+    pub configs: Vec<String>,
+    /// Seeds to run: the study's first seed and N from it (default: the study's).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub seeds: Option<u64>,
+    /// Training trials per network (default: the study's; rows that set their own, such
+    /// as the baselines' 0, keep theirs).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub trials: Option<u64>,
+    /// Held-out targets per network in the evaluation (default: the study's).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub eval_targets: Option<u64>,
+    /// Grasps in the evaluation (default: the study's).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    pub grasps: Option<u64>,
+}
+
+/// `trn study`.
+#[derive(Debug, Args, Clone)]
+pub struct StudyArgs {
+    /// The study file (TOML).
+    pub file: PathBuf,
+    /// What the command line changes in it.
+    #[command(flatten)]
+    pub over: StudyOverrides,
+    /// The base plant of the study (a built-in name or a TOML file; rows that name their
+    /// own keep theirs).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Where the study's JSON (NAME.json), the plants made of keys and the run folder go
+    /// (default: out/NAME).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the study's JSON here instead (.json).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Parallelism, resume, shard, run folder.
+    #[command(flatten)]
+    pub opts: StudyOpts,
+}
+
+/// `trn merge`.
+#[derive(Debug, Args, Clone)]
+pub struct MergeArgs {
+    /// Run files, or run folders (their *.json files), of one study: every shard's.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Write the study's JSON here (.json): what the unsharded command writes.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// A life-long study's plot (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 /// `trn lifelong`.
@@ -76,24 +170,31 @@ pub struct LifelongArgs {
     /// Where lifelong.json (and, with the plot feature, lifelong.png) go.
     #[arg(long, default_value = "out/lifelong")]
     pub out: PathBuf,
+    /// Parallelism (one run per controller), resume, shard, run folder.
+    #[command(flatten)]
+    pub opts: StudyOpts,
 }
 
 /// `trn sweep`.
 #[derive(Debug, Args, Clone)]
 pub struct SweepArgs {
-    /// Seeds to run: 100 .. 100 + N.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
-    pub seeds: u64,
-    /// Training trials per network.
-    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
-    pub trials: u64,
+    /// The sweep's study file (default: the built-in studies/sweep.toml: 16 variants,
+    /// seeds 100-102, 300 trials).
+    #[arg(long)]
+    pub study: Option<PathBuf>,
+    /// Rows, seeds, trials, the evaluation's size.
+    #[command(flatten)]
+    pub over: StudyOverrides,
     /// The base configuration the variants change: a TOML file, `ideal` (the default) or
     /// `realistic` (the last rows are the realistic plant whatever the base).
     #[arg(long)]
     pub config: Option<String>,
-    /// Where the variants' configurations and sweep.json go.
+    /// Where the variants' configurations, sweep.json and the run folder go.
     #[arg(long, default_value = "out/sweep")]
     pub out: PathBuf,
+    /// Parallelism, resume, shard, run folder.
+    #[command(flatten)]
+    pub opts: StudyOpts,
 }
 
 /// `trn conformance`.
@@ -244,22 +345,30 @@ pub struct EvalArgs {
 /// `trn compare`.
 #[derive(Debug, Args, Clone)]
 pub struct CompareArgs {
-    /// Seeds to run: 100 .. 100 + N (tuning uses seeds 1-99 only).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
-    pub seeds: u64,
-    /// Training trials per network.
-    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
-    pub trials: u64,
-    /// Only the project preset (the test suite's band check).
+    /// The comparison's study file (default: the built-in studies/compare.toml: 8
+    /// configurations, seeds 100-109, 300 trials, 100 held-out targets, 50 grasps).
     #[arg(long)]
+    pub study: Option<PathBuf>,
+    /// Rows (--configs project,paper,no-neighbourhood,no-priming,no-fine,no-trial-secant,
+    /// broyden,model), seeds, trials, the evaluation's size.
+    #[command(flatten)]
+    pub over: StudyOverrides,
+    /// Only the project preset (the test suite's band check): `--configs project`.
+    #[arg(long, conflicts_with = "configs")]
     pub project_only: bool,
     /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
     /// default; `ideal`; `aging`).
     #[arg(long)]
     pub config: Option<String>,
-    /// Write every seed's figures as JSON here (.json).
+    /// Write every configuration's figures over the seeds as JSON here (.json).
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Where plants made of keys and the run folder go.
+    #[arg(long, default_value = "out/compare")]
+    pub out: PathBuf,
+    /// Parallelism, resume, shard, run folder.
+    #[command(flatten)]
+    pub opts: StudyOpts,
 }
 
 #[cfg(test)]

@@ -1,8 +1,8 @@
 //! `trn-sim`: the command line of the project, over the libraries: `trn` (train, evaluate,
-//! compare, sweep, lifelong, conformance), `controller-node` (the controller as a process
-//! on SocketCAN), `sim-pictures`; options ([`cli`]) turned into the lab's specifications
-//! ([`args`]), the progress bar and interrupts ([`progress`]), plots ([`plot`],
-//! [`picture`]).
+//! compare, sweep, lifelong, study, merge, conformance), `controller-node` (the controller
+//! as a process on SocketCAN), `sim-pictures`; options ([`cli`]) turned into the lab's
+//! specifications ([`args`]), the progress bar and interrupts of a run ([`progress`]) and of
+//! a study ([`studies`]), plots ([`plot`], [`picture`]).
 //!
 //! The layers below, each usable alone: `trn-plant` (the simulated arm and its CAN nodes),
 //! `trn-transport` (the buses and where the controller runs), `trn-lab` (runs, studies,
@@ -16,5 +16,6 @@ pub mod picture;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod progress;
+pub mod studies;
 
 pub use error::{CliError, Result};

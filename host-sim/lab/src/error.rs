@@ -56,6 +56,17 @@ pub enum LabError {
         /// The reasons, counted.
         reasons: String,
     },
+    /// Runs of a study failed (the others finished and were written: `--resume` runs only
+    /// what is missing).
+    #[error("{failed} of {runs} runs failed: {errors}")]
+    RunsFailed {
+        /// Runs that failed.
+        failed: usize,
+        /// Runs of the study (or shard) run.
+        runs: usize,
+        /// Each failed run and its error.
+        errors: String,
+    },
     /// The controller on the bus failed checks of the conformance suite.
     #[error("{failed} of {checks} conformance checks failed")]
     NotConformant {

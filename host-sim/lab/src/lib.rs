@@ -11,7 +11,9 @@
 //!   and [`metrics`] turn into the [`report::Report`]. [`schedule`] orders the trials.
 //! - Time: in process everything runs on one simulated clock ([`trn_transport::SimClock`]);
 //!   on a real bus on the wall clock. The rig and the runner read it through the rig.
-//! - Studies of many runs: [`compare`], [`sweep`], [`lifelong`]; the [`conformance`] suite.
+//! - Studies of many runs ([`study`]: study files, runs in parallel, one file per finished
+//!   run, resume, shards and their merge): [`compare`], [`sweep`], [`lifelong`]; the
+//!   [`conformance`] suite.
 //! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
 //!   and the simulator's state beside them ([`sim_state`]).
 
@@ -37,6 +39,7 @@ pub mod scoring;
 mod session;
 pub mod sim_state;
 pub mod spec;
+pub mod study;
 pub mod summary;
 pub mod sweep;
 pub mod targets;

@@ -20,8 +20,9 @@ use trn_controller::Law;
 use super::report::SnapshotPoint;
 use super::schedule::Plan;
 use super::summary::px;
-use crate::error::{io, LabError as Error, Result};
+use crate::error::{LabError as Error, Result};
 use crate::spec::{Command, Profile, RunSpec};
+use crate::study::{Finished, LifelongTable, Row, RunFile, Study, StudyHeader, Table};
 
 /// What `trn lifelong` runs.
 #[derive(Debug, Clone, PartialEq)]
@@ -174,49 +175,92 @@ pub fn arm_run(a: &LifelongSpec, arm: &Arm) -> Result<RunSpec> {
     Ok(spec)
 }
 
-/// Runs the scenario, prints the table and writes lifelong.json; the curves come back (for
-/// the plot).
-pub fn run(a: &LifelongSpec) -> Result<Vec<Curve>> {
-    trn_plant::SimConfig::resolve(Some(std::path::Path::new(&a.config)))?;
-    if a.initial > a.trials {
-        return Err(Error::Usage(format!(
-            "--initial {} is more than --trials {}",
-            a.initial, a.trials
-        )));
-    }
-    let arms = select(&a.only)?;
-    std::fs::create_dir_all(&a.out).map_err(io(&a.out))?;
-    let mut curves = vec![];
-    for arm in &arms {
-        let r = crate::run::run_quietly(&arm_run(a, arm)?)?;
-        let curve = Curve {
-            key: arm.key.into(),
-            name: arm.name.into(),
-            snapshots: r.learning_curve,
-            failed_trials: r.failed_trials,
-            wall_s: r.wall_s,
+impl LifelongSpec {
+    /// The scenario as a study: one run per controller of `only`, in the scenario's order.
+    /// Refuses a plant that cannot be loaded, more initial trials than trials and an
+    /// unknown controller before anything runs or is written.
+    pub fn study(&self) -> Result<Study> {
+        trn_plant::SimConfig::resolve(Some(std::path::Path::new(&self.config)))?;
+        if self.initial > self.trials {
+            return Err(Error::Usage(format!(
+                "--initial {} is more than --trials {}",
+                self.initial, self.trials
+            )));
+        }
+        let runs = select(&self.only)?
+            .iter()
+            .map(|arm| {
+                let row = Row {
+                    name: arm.name.into(),
+                    key: arm.key.into(),
+                };
+                arm_run(self, arm).map(|spec| (row, spec))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let table = LifelongTable {
+            seed: self.seed,
+            config: self.config.clone(),
+            trials: self.trials,
+            initial: self.initial,
+            snapshot_every: self.snapshot_every,
+            snapshot_targets: self.snapshot_targets,
+            snapshot_grasps: self.snapshot_grasps,
         };
-        let (ratio, grasp) = curve.worst_after(a.initial);
-        eprintln!(
-            "{}: worst after {} trials: {} x the floor, grasps {}, wall {:.0} s",
-            arm.key,
-            a.initial,
-            px(ratio),
-            percent(grasp),
-            r.wall_s
-        );
-        curves.push(curve);
+        Ok(Study::new("lifelong", Table::Lifelong, Some(table), runs))
     }
-    print_table(&curves, a);
-    crate::output::write_json(&a.out.join("lifelong.json"), &curves)?;
-    Ok(curves)
+}
+
+/// The curves of the scenario's runs, in the study's order.
+pub fn curves(files: &[RunFile]) -> Vec<Curve> {
+    files
+        .iter()
+        .map(|f| Curve {
+            key: f.row.key.clone(),
+            name: f.row.name.clone(),
+            snapshots: f.report.learning_curve.clone(),
+            failed_trials: f.report.failed_trials,
+            wall_s: f.report.wall_s,
+        })
+        .collect()
+}
+
+/// The scenario's tables and JSON (its curves) from every run of the study.
+pub fn finish(header: &StudyHeader, files: &[RunFile]) -> Result<Finished> {
+    let t = header.lifelong.as_ref().ok_or_else(|| {
+        Error::Usage(format!(
+            "study {}: a life-long study without its parameters",
+            header.name
+        ))
+    })?;
+    let curves = curves(files);
+    Ok(Finished {
+        table: table(&curves, t),
+        json: serde_json::to_value(&curves).map_err(|e| Error::Usage(e.to_string()))?,
+        files: files.to_vec(),
+    })
+}
+
+/// The line of one finished run (progress off a terminal).
+pub fn line(f: &RunFile) -> String {
+    let initial = f.study.lifelong.as_ref().map_or(0, |t| t.initial);
+    let c = &curves(std::slice::from_ref(f))[0];
+    let (ratio, grasp) = c.worst_after(initial);
+    format!(
+        "{}: worst after {initial} trials: {} x the floor, grasps {}",
+        c.key,
+        px(ratio),
+        percent(grasp)
+    )
 }
 
 /// The markdown tables: per snapshot and controller the measured combined error after the
 /// budget over the noise floor and the grasp success; then each controller's worst after
 /// the initial training.
-pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
-    println!(
+pub fn table(curves: &[Curve], a: &LifelongTable) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
         "Seed {}, configuration `{}`, {} trials per network, a snapshot every {} trials ({} held-out targets per network, coarse + 6 fine moves; {} held-out grasps, stop rule). Each cell: measured combined error after the budget / camera-noise floor, grasp success.",
         a.seed,
         a.config,
@@ -225,10 +269,10 @@ pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
         a.snapshot_targets,
         a.snapshot_grasps
     );
-    println!();
+    out.push('\n');
     let head: Vec<&str> = curves.iter().map(|c| c.name.as_str()).collect();
-    println!("| trials | {} |", head.join(" | "));
-    println!("|---|{}", "---|".repeat(curves.len()));
+    let _ = writeln!(out, "| trials | {} |", head.join(" | "));
+    let _ = writeln!(out, "|---|{}", "---|".repeat(curves.len()));
     let n = curves.iter().map(|c| c.snapshots.len()).max().unwrap_or(0);
     for i in 0..n {
         let trial = curves
@@ -249,17 +293,19 @@ pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
                 _ => "-".into(),
             })
             .collect();
-        println!("| {trial} | {} |", cells.join(" | "));
+        let _ = writeln!(out, "| {trial} | {} |", cells.join(" | "));
     }
-    println!();
-    println!(
+    out.push('\n');
+    let _ = writeln!(
+        out,
         "| controller | worst error / floor after {} trials | lowest grasp success after {} trials | failed trials |",
         a.initial, a.initial
     );
-    println!("|---|---|---|---|");
+    out.push_str("|---|---|---|---|\n");
     for c in curves {
         let (ratio, grasp) = c.worst_after(a.initial);
-        println!(
+        let _ = writeln!(
+            out,
             "| {} | {}x | {} | {} |",
             c.name,
             px(ratio),
@@ -267,6 +313,7 @@ pub fn print_table(curves: &[Curve], a: &LifelongSpec) {
             c.failed_trials
         );
     }
+    out
 }
 
 /// A fraction as a percentage with one decimal, `n/a` when there is none (no snapshot after

@@ -275,6 +275,10 @@ fn deployment(log: &RunLog, phase: Phase, targets: usize) -> Deployment {
         moves_to_2px_mean: mean(&to2),
         moves_to_2px_not_reached: not_reached,
         failed_trials: failed,
+        combined_measured_by_target_px: pairs
+            .iter()
+            .map(|(a, b)| combined(at(&a.errors_px, moves - 1), at(&b.errors_px, moves - 1)))
+            .collect(),
     }
 }
 

@@ -128,6 +128,11 @@ pub struct Deployment {
     pub moves_to_2px_not_reached: usize,
     /// Trials of this evaluation that failed (aborted, target not seen, fewer moves).
     pub failed_trials: usize,
+    /// The combined measured error after the last move of the budget, per held-out target
+    /// whose trials both succeeded, in the held-out set's order: the distribution behind
+    /// the mean (its tail: percentiles over targets and seeds in `trn compare`).
+    #[serde(default)]
+    pub combined_measured_by_target_px: Vec<f32>,
 }
 
 /// One frozen snapshot of the learning curve.

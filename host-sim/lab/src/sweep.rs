@@ -1,140 +1,53 @@
-//! `trn sweep`: the project preset on a built-in list of plant variants (hysteresis width,
-//! camera noise, coupling, creep, camera outliers, damping; each changed alone from the base
+//! `trn sweep`: the project preset on plant variants (hysteresis width, camera noise,
+//! coupling, creep, camera outliers, damping; each changed alone from the base
 //! configuration, the ideal plant unless `--config` names another; then the realistic plant
 //! with all of them, and with 25 % hysteresis), on the honest protocol (deployment targets,
-//! fixed move budget), over seeds from 100: how the result degrades with each effect. Each variant's configuration is
-//! written as a TOML file beside the report, so every row can be rerun with `--config`.
+//! fixed move budget), over seeds from 100: how the result degrades with each effect. The
+//! variants are a study file, `studies/sweep.toml` (built in; `--study FILE` another). Each
+//! variant's configuration is written as a TOML file beside the results, so every row can
+//! be rerun with `--config`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use super::compare::{spread, FIRST_REPORTED_SEED};
-use super::schedule::Plan;
+use super::compare::{by_row, parent};
 use super::summary::px;
-use crate::error::{io, LabError as Error, Result};
-use crate::spec::{Command, RunSpec};
-use trn_plant::SimConfig;
+use crate::error::{LabError, Result};
+use crate::study::file::{Overrides, StudyFile};
+use crate::study::stats::{Spread, Worse};
+use crate::study::{Finished, RunFile, Study};
+
+/// The built-in sweep: `studies/sweep.toml`.
+pub const STUDY: &str = include_str!("../../../studies/sweep.toml");
 
 /// What `trn sweep` runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepSpec {
-    /// Seeds 100 .. 100 + N.
-    pub seeds: u64,
-    /// Training trials per network.
-    pub trials: usize,
-    /// The base plant the variants change (`None`: the ideal plant).
-    pub config: Option<String>,
-    /// Where the variants' configurations and sweep.json go.
+    /// The study file (`None`: the built-in `studies/sweep.toml`).
+    pub study: Option<PathBuf>,
+    /// What the command line changes in it (`plant`: the base the variants change).
+    pub over: Overrides,
+    /// Where the variants' configurations (and sweep.json) go.
     pub out: PathBuf,
 }
 
-/// One plant variant: a name and what it changes.
-pub struct Variant {
-    /// Its name in the table.
-    pub name: &'static str,
-    /// The change, applied to the base configuration.
-    pub apply: fn(&mut SimConfig),
+impl SweepSpec {
+    /// The study: its variants over its seeds, each variant's plant written to `out`.
+    pub fn study(&self) -> Result<Study> {
+        let (file, dir) = match &self.study {
+            Some(p) => (StudyFile::read(p)?, parent(p)),
+            None => (
+                StudyFile::parse(STUDY, "studies/sweep.toml")?,
+                PathBuf::from("."),
+            ),
+        };
+        file.study(&dir, &self.over, Some(&self.out))
+    }
 }
-
-fn width(c: &mut SimConfig, w: f64) {
-    c.joints.iter_mut().for_each(|j| j.hysteresis_width = w);
-}
-
-fn damping(c: &mut SimConfig, z: f64) {
-    c.joints.iter_mut().for_each(|j| j.damping_ratio = z);
-}
-
-/// The built-in variants (the list).
-pub const VARIANTS: &[Variant] = &[
-    Variant {
-        name: "base",
-        apply: |_| {},
-    },
-    Variant {
-        name: "hysteresis width 5 %",
-        apply: |c| width(c, 0.05),
-    },
-    Variant {
-        name: "hysteresis width 15 %",
-        apply: |c| width(c, 0.15),
-    },
-    Variant {
-        name: "hysteresis width 25 %",
-        apply: |c| width(c, 0.25),
-    },
-    Variant {
-        name: "camera noise 0.1 px",
-        apply: |c| c.pixel_noise_px = 0.1,
-    },
-    Variant {
-        name: "camera noise 0.5 px",
-        apply: |c| c.pixel_noise_px = 0.5,
-    },
-    Variant {
-        name: "camera noise 1 px",
-        apply: |c| c.pixel_noise_px = 1.0,
-    },
-    Variant {
-        name: "coupling (gravity sag, load-dependent width)",
-        apply: |c| {
-            let r = SimConfig::realistic().realism;
-            c.realism.sag_shoulder_deg = r.sag_shoulder_deg;
-            c.realism.sag_elbow_deg = r.sag_elbow_deg;
-            c.realism.load_width_gain = r.load_width_gain;
-        },
-    },
-    Variant {
-        name: "creep",
-        apply: |c| {
-            let r = SimConfig::realistic().realism;
-            c.realism.creep_fraction = r.creep_fraction;
-            c.realism.creep_tau_s = r.creep_tau_s;
-        },
-    },
-    Variant {
-        name: "process noise",
-        apply: |c| c.realism.process_noise_deg = SimConfig::realistic().realism.process_noise_deg,
-    },
-    Variant {
-        name: "skewed loop",
-        apply: |c| c.realism.hysteresis_skew = SimConfig::realistic().realism.hysteresis_skew,
-    },
-    Variant {
-        name: "camera outliers and dropouts",
-        apply: |c| {
-            let r = SimConfig::realistic().realism;
-            c.realism.outlier_rate = r.outlier_rate;
-            c.realism.dropout_rate = r.dropout_rate;
-        },
-    },
-    Variant {
-        name: "damping 0.15",
-        apply: |c| damping(c, 0.15),
-    },
-    Variant {
-        name: "realistic (coupling, creep, process noise, skewed loop, outliers, occlusion, distortion: the runs' default)",
-        apply: |c| *c = SimConfig::realistic(),
-    },
-    Variant {
-        name: "realistic, hysteresis width 25 %",
-        apply: |c| {
-            *c = SimConfig::realistic();
-            width(c, 0.25);
-        },
-    },
-    Variant {
-        name: "realistic, hysteresis width 25 %, loop width independent of the load",
-        apply: |c| {
-            *c = SimConfig::realistic();
-            width(c, 0.25);
-            c.realism.load_width_gain = 0.0;
-        },
-    },
-];
 
 /// One variant's figures over the seeds.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Row {
     /// The variant.
     pub name: String,
@@ -154,84 +67,68 @@ pub struct Row {
     pub failed_trials: Vec<usize>,
 }
 
-/// Runs every variant and prints the table.
-pub fn run(a: &SweepSpec) -> Result<()> {
-    let base = match &a.config {
-        Some(p) => SimConfig::resolve(Some(Path::new(p)))?,
-        None => SimConfig::ideal(),
-    };
-    let dir = a.out.clone();
-    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let mut rows = vec![];
-    for v in VARIANTS {
-        let mut cfg = base.clone();
-        (v.apply)(&mut cfg);
-        cfg.validate()?;
-        let path = dir.join(format!("{}.toml", file_name(v.name)));
-        write_config(&cfg, &path)?;
-        let mut row = Row {
-            name: v.name.to_string(),
-            config: path.clone(),
-            measured_2_px: vec![],
-            measured_last_px: vec![],
-            floor_px: vec![],
-            fine_moves_stop_rule: vec![],
-            grasp_success: vec![],
-            failed_trials: vec![],
+impl Row {
+    fn of(files: &[&RunFile]) -> Row {
+        let col = |f: &dyn Fn(&crate::Report) -> f32| -> Vec<f32> {
+            files.iter().map(|r| f(&r.report)).collect()
         };
-        for seed in FIRST_REPORTED_SEED..FIRST_REPORTED_SEED + a.seeds {
-            let mut spec = RunSpec::new(Command::Train, seed);
-            spec.plant = cfg.clone();
-            spec.plant_name = Some(path.display().to_string());
-            spec.plan = Plan::new(a.trials, 100, 50);
-            let r = crate::run::run_quietly(&spec)?;
-            let d = &r.deployment;
-            let at = |m: usize| d.combined_measured_px.get(m).copied().unwrap_or(f32::NAN);
-            row.measured_2_px.push(at(2));
-            row.measured_last_px
-                .push(d.combined_measured_px.last().copied().unwrap_or(f32::NAN));
-            row.floor_px.push(d.noise_floor_px);
-            row.fine_moves_stop_rule.push(r.fine_moves_mean);
-            row.grasp_success.push(r.grasp_success_rate);
-            row.failed_trials.push(r.failed_trials);
-            eprintln!(
-                "{} seed {seed}: measured after 2 fine {} px, after the budget {} px (floor {}), wall {:.1} s",
-                v.name,
-                px(at(2)),
-                px(*row.measured_last_px.last().unwrap_or(&f32::NAN)),
-                px(d.noise_floor_px),
-                r.wall_s
-            );
+        let measured = |r: &crate::Report, m: Option<usize>| {
+            let v = &r.deployment.combined_measured_px;
+            m.map_or(v.last(), |m| v.get(m))
+                .copied()
+                .unwrap_or(f32::NAN)
+        };
+        let config = files
+            .first()
+            .and_then(|f| f.report.spec.as_ref())
+            .and_then(|s| s.plant_name.clone())
+            .unwrap_or_default();
+        Row {
+            name: files
+                .first()
+                .map(|f| f.row.name.clone())
+                .unwrap_or_default(),
+            config: config.into(),
+            measured_2_px: col(&|r| measured(r, Some(2))),
+            measured_last_px: col(&|r| measured(r, None)),
+            floor_px: col(&|r| r.deployment.noise_floor_px),
+            fine_moves_stop_rule: col(&|r| r.fine_moves_mean),
+            grasp_success: col(&|r| r.grasp_success_rate),
+            failed_trials: files.iter().map(|r| r.report.failed_trials).collect(),
         }
-        rows.push(row);
     }
-    print_table(&rows);
-    crate::output::write_json(&dir.join("sweep.json"), &rows)
 }
 
-fn file_name(name: &str) -> String {
-    name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
-        .collect::<String>()
-        .split('-')
-        .filter(|s| !s.is_empty())
-        .collect::<Vec<_>>()
-        .join("-")
+/// The sweep's rows, table and JSON from every run of the study.
+pub fn finish(files: &[RunFile]) -> Result<Finished> {
+    let rows: Vec<Row> = by_row(files).iter().map(|r| Row::of(r)).collect();
+    Ok(Finished {
+        table: table(&rows),
+        json: serde_json::to_value(&rows).map_err(|e| LabError::Usage(e.to_string()))?,
+        files: files.to_vec(),
+    })
 }
 
-fn write_config(cfg: &SimConfig, path: &Path) -> Result<()> {
-    let text = toml::to_string(cfg).map_err(|e| Error::Usage(e.to_string()))?;
-    std::fs::write(path, text).map_err(io(path))
+/// The line of one finished run (progress off a terminal).
+pub fn line(f: &RunFile) -> String {
+    let d = &f.report.deployment;
+    format!(
+        "{} seed {}: measured after 2 fine {} px, after the budget {} px (floor {})",
+        f.row.name,
+        f.report.seed,
+        px(d.combined_measured_px.get(2).copied().unwrap_or(f32::NAN)),
+        px(d.combined_measured_px.last().copied().unwrap_or(f32::NAN)),
+        px(d.noise_floor_px),
+    )
 }
 
-/// The markdown table (mean ± standard deviation over the seeds).
-pub fn print_table(rows: &[Row]) {
-    let ms = |x: &[f32]| {
-        let (m, s) = spread(x);
-        format!("{} ± {}", px(m), px(s))
-    };
-    println!("| plant variant | measured px after coarse + 2 fine | after the budget | noise floor | ratio to the floor | fine moves, stop rule | grasp success % | failed trials |");
-    println!("|---|---|---|---|---|---|---|---|");
+/// The markdown table: each cell the mean ± the standard deviation over the seeds and, in
+/// brackets, the worst seed.
+pub fn table(rows: &[Row]) -> String {
+    let cell = |x: &[f32], w: Worse| Spread::of(x, w).cell();
+    let mut out = String::new();
+    out.push_str("| plant variant | measured px after coarse + 2 fine | after the budget | noise floor | ratio to the floor | fine moves, stop rule | grasp success % | failed trials |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let ratio: Vec<f32> = r
             .measured_last_px
@@ -240,39 +137,101 @@ pub fn print_table(rows: &[Row]) {
             .map(|(m, f)| m / f)
             .collect();
         let grasp: Vec<f32> = r.grasp_success.iter().map(|g| 100.0 * g).collect();
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+        out.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.name,
-            ms(&r.measured_2_px),
-            ms(&r.measured_last_px),
-            px(spread(&r.floor_px).0),
-            ms(&ratio),
-            ms(&r.fine_moves_stop_rule),
-            ms(&grasp),
+            cell(&r.measured_2_px, Worse::Higher),
+            cell(&r.measured_last_px, Worse::Higher),
+            px(Spread::of(&r.floor_px, Worse::Higher).mean),
+            cell(&ratio, Worse::Higher),
+            cell(&r.fine_moves_stop_rule, Worse::Higher),
+            cell(&grasp, Worse::Lower),
             r.failed_trials.iter().sum::<usize>()
-        );
+        ));
     }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use trn_plant::SimConfig;
 
-    /// Every variant is a valid configuration that changes the base (but `base`), and each
-    /// has its own file name.
+    fn width(c: &mut SimConfig, w: f64) {
+        c.joints.iter_mut().for_each(|j| j.hysteresis_width = w);
+    }
+
+    /// The variants as they were compiled in before the sweep became a study file:
+    /// `studies/sweep.toml` must make exactly these plants, so the README's figures stand.
+    #[allow(clippy::type_complexity)]
+    fn before() -> Vec<(&'static str, Box<dyn Fn(&mut SimConfig)>)> {
+        let real = SimConfig::realistic;
+        vec![
+            ("base", Box::new(|_| {})),
+            ("hysteresis width 5 %", Box::new(|c| width(c, 0.05))),
+            ("hysteresis width 15 %", Box::new(|c| width(c, 0.15))),
+            ("hysteresis width 25 %", Box::new(|c| width(c, 0.25))),
+            ("camera noise 0.1 px", Box::new(|c| c.pixel_noise_px = 0.1)),
+            ("camera noise 0.5 px", Box::new(|c| c.pixel_noise_px = 0.5)),
+            ("camera noise 1 px", Box::new(|c| c.pixel_noise_px = 1.0)),
+            ("coupling (gravity sag, load-dependent width)", Box::new(move |c| {
+                let r = real().realism;
+                c.realism.sag_shoulder_deg = r.sag_shoulder_deg;
+                c.realism.sag_elbow_deg = r.sag_elbow_deg;
+                c.realism.load_width_gain = r.load_width_gain;
+            })),
+            ("creep", Box::new(move |c| {
+                let r = real().realism;
+                c.realism.creep_fraction = r.creep_fraction;
+                c.realism.creep_tau_s = r.creep_tau_s;
+            })),
+            ("process noise", Box::new(move |c| c.realism.process_noise_deg = real().realism.process_noise_deg)),
+            ("skewed loop", Box::new(move |c| c.realism.hysteresis_skew = real().realism.hysteresis_skew)),
+            ("camera outliers and dropouts", Box::new(move |c| {
+                let r = real().realism;
+                c.realism.outlier_rate = r.outlier_rate;
+                c.realism.dropout_rate = r.dropout_rate;
+            })),
+            ("damping 0.15", Box::new(|c| c.joints.iter_mut().for_each(|j| j.damping_ratio = 0.15))),
+            ("realistic (coupling, creep, process noise, skewed loop, outliers, occlusion, distortion: the runs' default)", Box::new(move |c| *c = real())),
+            ("realistic, hysteresis width 25 %", Box::new(move |c| {
+                *c = real();
+                width(c, 0.25);
+            })),
+            ("realistic, hysteresis width 25 %, loop width independent of the load", Box::new(move |c| {
+                *c = real();
+                width(c, 0.25);
+                c.realism.load_width_gain = 0.0;
+            })),
+        ]
+    }
+
     #[test]
-    fn every_variant_is_valid_distinct_and_named_uniquely() {
-        let base = SimConfig::ideal();
-        let mut names = std::collections::BTreeSet::new();
-        for v in VARIANTS {
-            let mut c = base.clone();
-            (v.apply)(&mut c);
-            assert!(c.validate().is_ok(), "{}", v.name);
-            assert_eq!(c == base, v.name == "base", "{}", v.name);
-            assert!(names.insert(file_name(v.name)), "{}", v.name);
-            // the file round-trips
-            let text = toml::to_string(&c).unwrap();
-            assert_eq!(SimConfig::from_toml_str(&text).unwrap(), c, "{}", v.name);
+    fn the_study_file_makes_the_variants_it_replaced() {
+        let out = std::env::temp_dir().join(format!("trn-sweep-variants-{}", std::process::id()));
+        let spec = SweepSpec {
+            study: None,
+            over: Overrides::default(),
+            out: out.clone(),
+        };
+        let s = spec.study().unwrap();
+        let before = before();
+        assert_eq!(s.jobs.len(), before.len() * 3);
+        for (i, (name, apply)) in before.iter().enumerate() {
+            let mut plant = SimConfig::ideal();
+            apply(&mut plant);
+            for (k, seed) in (100..103).enumerate() {
+                let j = &s.jobs[i * 3 + k];
+                assert_eq!(j.row.name, *name);
+                let mut old = crate::RunSpec::new(crate::Command::Train, seed);
+                old.plant = plant.clone();
+                let file = out.join(format!("{}.toml", crate::study::slug(name)));
+                old.plant_name = Some(file.display().to_string());
+                assert_eq!(j.spec, old, "{name}");
+                // the file written is the variant's plant
+                assert_eq!(SimConfig::load(&file).unwrap(), plant, "{name}");
+            }
         }
+        let _ = std::fs::remove_dir_all(&out);
     }
 }

@@ -185,7 +185,7 @@ fn more_initial_trials_than_trials_is_a_config_error() {
         initial: 1001,
         ..lifelong_args(&out)
     };
-    match lifelong::run(&a) {
+    match a.study() {
         Err(LabError::Usage(m)) => assert!(m.contains("--initial 1001"), "{m}"),
         other => panic!("expected a configuration error, got {other:?}"),
     }

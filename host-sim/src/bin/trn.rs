@@ -4,9 +4,10 @@
 
 use clap::Parser;
 use std::process::ExitCode;
-use trn_lab::{compare, lifelong, run, summary, sweep, Command, RunSpec};
+use trn_lab::{lifelong, run, summary, Command, RunSpec};
 use trn_sim::cli::{Cli, Cmd};
 use trn_sim::progress::{Interrupts, Progress};
+use trn_sim::studies;
 use trn_sim::{CliError, Result};
 
 /// Runs one specification with the progress bar and the interrupts; draws its plot.
@@ -67,9 +68,28 @@ fn main() -> ExitCode {
             .spec(Command::Conformance, 0)
             .map_err(CliError::from)
             .and_then(|s| run_one(s, &interrupts, false)),
-        Cmd::Compare(a) => compare::run(&a.spec()).map_err(CliError::from),
-        Cmd::Sweep(a) => sweep::run(&a.spec()).map_err(CliError::from),
-        Cmd::Lifelong(a) => lifelong_run(&a.spec()),
+        Cmd::Compare(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
+            let opts = a.opts.options(&a.out);
+            studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)
+        }),
+        Cmd::Sweep(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
+            let (opts, json) = (a.opts.options(&a.out), a.out.join("sweep.json"));
+            studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
+        }),
+        Cmd::Lifelong(a) => lifelong_run(&a.spec(), &a.opts, &interrupts),
+        Cmd::Study(a) => a
+            .study()
+            .map_err(CliError::from)
+            .and_then(|(s, out, json)| {
+                let opts = a.opts.options(&out);
+                studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
+            }),
+        Cmd::Merge(a) => {
+            studies::merge(&a.files, a.report.as_deref()).and_then(|f| match &a.plot {
+                Some(p) => lifelong_plot(&f.files, p),
+                None => Ok(()),
+            })
+        }
     };
     if let Some(code) = interrupts.exit_code() {
         if let Err(e) = &result {
@@ -87,17 +107,39 @@ fn main() -> ExitCode {
     }
 }
 
-fn lifelong_run(spec: &lifelong::LifelongSpec) -> Result<()> {
-    let curves = lifelong::run(spec)?;
-    #[cfg(feature = "plot")]
-    {
-        let path = spec.out.join("lifelong.png");
-        let pending = trn_lab::output::PendingFile::create(&path)?;
-        trn_sim::plot::lifelong(&curves, pending.temporary_path())
-            .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
-        pending.commit()?;
+fn lifelong_run(
+    spec: &lifelong::LifelongSpec,
+    opts: &trn_sim::cli::StudyOpts,
+    interrupts: &Interrupts,
+) -> Result<()> {
+    let study = spec.study()?;
+    let json = spec.out.join("lifelong.json");
+    let done = studies::run(
+        &study,
+        &opts.options(&spec.out),
+        opts.quiet,
+        interrupts,
+        Some(&json),
+    )?;
+    match done {
+        Some(f) if cfg!(feature = "plot") => {
+            lifelong_plot(&f.files, &spec.out.join("lifelong.png"))
+        }
+        _ => Ok(()),
     }
-    #[cfg(not(feature = "plot"))]
-    let _ = curves;
+}
+
+/// The life-long plot of a study's runs, written whole or not at all.
+#[cfg(feature = "plot")]
+fn lifelong_plot(files: &[trn_lab::study::RunFile], path: &std::path::Path) -> Result<()> {
+    let pending = trn_lab::output::PendingFile::create(path)?;
+    trn_sim::plot::lifelong(&lifelong::curves(files), pending.temporary_path())
+        .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
+    pending.commit()?;
     Ok(())
+}
+
+#[cfg(not(feature = "plot"))]
+fn lifelong_plot(_: &[trn_lab::study::RunFile], _: &std::path::Path) -> Result<()> {
+    Err(CliError::NoPlot)
 }
