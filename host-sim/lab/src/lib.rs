@@ -23,6 +23,7 @@ pub mod lifelong;
 pub mod metrics;
 pub mod observe;
 pub mod output;
+pub mod provenance;
 pub mod records;
 pub mod reference;
 pub mod report;
@@ -37,8 +38,10 @@ pub mod spec;
 pub mod summary;
 pub mod sweep;
 pub mod targets;
+pub mod trial_csv;
 
 pub use error::{io, LabError, Result};
 pub use observe::{Observer, Unobserved};
+pub use provenance::Provenance;
 pub use report::Report;
 pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};
