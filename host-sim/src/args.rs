@@ -49,6 +49,7 @@ impl Common {
             report: self.report.clone(),
             plot: self.plot.clone(),
             candump: self.candump.clone(),
+            csv: self.csv.clone(),
             ..Outputs::default()
         };
         Ok(spec)
