@@ -10,6 +10,10 @@ step main-job main_job
 # The README's headline figures: 3 seeds, each within mean +- 4 sd of the recorded 10 seeds.
 step results-bands bash scripts/results.sh --check
 step dbc-interop bash protocol/tools/check_dbc.sh
+# The Python package in a fresh venv (pip install ./python gymnasium): check_env and 200
+# random steps, the controllers from Python, the decoder on a training log (0 undecoded), a
+# rerun recording of a training read back (scripts/python-package.sh prints its time/disk).
+step python-package bash scripts/python-package.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
 prune_if_low protocol/fuzz/target
 # Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan (issue 6).
