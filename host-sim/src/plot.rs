@@ -81,7 +81,8 @@ where
     Ok(())
 }
 
-/// A legend in its own strip beside a chart: one entry a line, a mark and a name.
+/// A legend in its own strip beside a chart: one entry a mark and a name, a long name
+/// wrapped onto a second line (at the strip's width).
 pub fn side_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[(String, RGBColor, Mark)],
@@ -90,8 +91,10 @@ where
     DB::ErrorType: 'static,
 {
     let font = ("sans-serif", 15).into_font();
-    for (i, (name, c, mark)) in entries.iter().enumerate() {
-        let y = 48 + 24 * i as i32;
+    // about 8 pixels a character at this size, after the mark
+    let chars = (area.dim_in_pixel().0.saturating_sub(40) / 8).max(8) as usize;
+    let mut y = 48;
+    for (name, c, mark) in entries {
         match mark {
             Mark::Line => area.draw(&PathElement::new(vec![(6, y), (30, y)], c.stroke_width(2)))?,
             Mark::Dot => area.draw(&Circle::new((18, y), 4, c.filled()))?,
@@ -100,9 +103,28 @@ where
                 marker(area, (18, y), *s, *c)?;
             }
         }
-        area.draw(&Text::new(name.clone(), (36, y - 8), font.clone()))?;
+        for line in wrap(name, chars) {
+            area.draw(&Text::new(line, (36, y - 8), font.clone()))?;
+            y += 18;
+        }
+        y += 8;
     }
     Ok(())
+}
+
+/// `s` in lines of at most `width` characters, broken at spaces (a longer word alone).
+fn wrap(s: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in s.split(' ') {
+        match lines.last_mut() {
+            Some(l) if l.len() + 1 + word.len() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
 }
 
 /// The chart's area and its legend strip.
@@ -288,7 +310,8 @@ where
 }
 
 /// Error over the floor and grasp success against trials, one line per controller, each
-/// with its own marker (lines that coincide stay told apart), the legend beside each panel.
+/// with its own marker and set a little apart along the trials (lines that coincide, as the
+/// grasp rates at 100 % do, stay told apart), one legend beside both panels.
 pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> Result<()> {
     fonts();
     let err =
@@ -296,7 +319,8 @@ pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> 
     let draw = || -> DrawResult {
         let root = BitMapBackend::new(path, (1500, 520)).into_drawing_area();
         root.fill(&WHITE)?;
-        let (left, right) = root.split_horizontally(750);
+        let (charts, side) = root.split_horizontally(1500 - 260);
+        let (left, right) = charts.split_horizontally(620);
         let xmax = curves
             .iter()
             .flat_map(|c| c.snapshots.last().map(|p| p.trial))
@@ -309,28 +333,28 @@ pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> 
             .filter(|r| r.is_finite())
             .fold(2.0f32, f32::max)
             .min(20.0);
-        let entries: Vec<(String, RGBColor, Mark)> = curves
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (c.name.clone(), PALETTE[i % PALETTE.len()], Mark::Marked(i)))
-            .collect();
+        // each controller's points moved by a fraction of the axis, centred on the trial
+        let n = curves.len() as f32;
+        let dodge = |i: usize, t: f32| t + (i as f32 - (n - 1.0) / 2.0) * xmax * 0.025;
         let series: Vec<Vec<(f32, f32)>> = curves
             .iter()
-            .map(|c| {
+            .enumerate()
+            .map(|(i, c)| {
                 c.ratios()
                     .into_iter()
                     .filter(|(_, r)| r.is_finite())
-                    .map(|(t, r)| (t as f32, r))
+                    .map(|(t, r)| (dodge(i, t as f32), r))
                     .collect()
             })
             .collect();
         let grasps: Vec<Vec<(f32, f32)>> = curves
             .iter()
-            .map(|c| {
+            .enumerate()
+            .map(|(i, c)| {
                 c.snapshots
                     .iter()
                     .filter(|p| p.grasp_success.is_finite())
-                    .map(|p| (p.trial as f32, 100.0 * p.grasp_success))
+                    .map(|p| (dodge(i, p.trial as f32), 100.0 * p.grasp_success))
                     .collect()
             })
             .collect();
@@ -342,32 +366,53 @@ pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> 
                 ymax * 1.1,
                 &series,
             ),
-            (&right, "grasp success (%)", 0.0, 102.0, &grasps),
+            (&right, "grasp success (%)", 0.0, 106.0, &grasps),
         ] {
-            let (area, side) = with_legend(area);
-            let mut chart = ChartBuilder::on(&area)
+            let mut chart = ChartBuilder::on(area)
                 .caption(caption, ("sans-serif", 18))
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(50)
-                .build_cartesian_2d(0f32..xmax * 1.02, ylo..yhi)?;
+                .build_cartesian_2d(0f32..xmax * 1.04, ylo..yhi)?;
             chart
                 .configure_mesh()
                 .x_desc("trials per network")
                 .x_label_formatter(&integer)
+                .y_label_formatter(&plain)
                 .label_style(("sans-serif", 14))
                 .draw()?;
             for (i, pts) in data.iter().enumerate() {
                 let c = PALETTE[i % PALETTE.len()];
-                chart.draw_series(LineSeries::new(pts.clone(), c.mix(0.8).stroke_width(2)))?;
+                chart.draw_series(LineSeries::new(pts.clone(), c.mix(0.6).stroke_width(2)))?;
                 for &p in pts {
                     marker(chart.plotting_area(), p, i, c)?;
                 }
             }
-            side_legend(&side, &entries)?;
         }
+        let entries: Vec<(String, RGBColor, Mark)> = curves
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (c.name.clone(), PALETTE[i % PALETTE.len()], Mark::Marked(i)))
+            .collect();
+        side_legend(&side, &entries)?;
         root.present()?;
         Ok(())
     };
     draw().map_err(|e| err(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_legend_names_wrap_at_spaces() {
+        assert_eq!(
+            wrap("project, frozen after the initial training", 20),
+            vec!["project, frozen", "after the initial", "training"]
+        );
+        assert_eq!(wrap("short", 20), vec!["short"]);
+        assert_eq!(integer(&50.0), "50");
+        assert_eq!(plain(&100.0), "100");
+    }
 }
