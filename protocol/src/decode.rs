@@ -131,12 +131,22 @@ impl LogDecoder {
                     None => Outcome::Error(Error::BadSegmentHeader),
                 }
             }
+            // the incomplete transfer before it is discarded (its frames stay undecoded);
+            // this first segment starts a new one
+            Err(Error::TransferAborted) => {
+                self.pending.insert(raw, vec![index]);
+                match segment_of(frame) {
+                    Some((kind, index, count, transfer)) => Outcome::Segment {
+                        kind,
+                        index,
+                        count,
+                        transfer,
+                    },
+                    None => Outcome::Error(Error::TransferAborted),
+                }
+            }
             Err(e) => {
                 match e {
-                    // the old transfer is gone, this first segment started a new one
-                    Error::TransferAborted => {
-                        self.pending.insert(raw, vec![index]);
-                    }
                     // ignored, the transfer in progress kept (a mismatch that discarded it
                     // shows at its next segment, an orphan)
                     Error::DuplicateSegment { .. }
@@ -236,9 +246,13 @@ mod tests {
             assert!(matches!(dec.push(f, 0).outcome, Outcome::Segment { .. }));
         }
         assert_eq!(dec.summary().undecoded, 6);
-        // a later message on the same id replaces the incomplete one
-        for f in enc.encode(&target(2)).unwrap().iter() {
-            dec.push(f, 1_000);
+        // a later message on the same id replaces the incomplete one: its first segment
+        // starts the new transfer
+        for (i, f) in enc.encode(&target(2)).unwrap().iter().enumerate() {
+            let out = dec.push(f, 1_000).outcome;
+            if i == 0 {
+                assert!(matches!(out, Outcome::Segment { index: 0, .. }), "{out:?}");
+            }
         }
         // a frame of an unknown kind
         let junk = CanFrame::classic(0x7F1, &[1]).unwrap();
