@@ -104,6 +104,10 @@ impl LiveStream {
         if let Some(r) = &recording {
             cmd.arg("--save").arg(r.temporary_path());
         }
+        // its own process group: an interrupt at the terminal stops the run at a trial
+        // boundary (`progress`), and the live view then ends with what the run did
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
         let mut child = cmd
             .stdin(Stdio::piped())
             .spawn()
