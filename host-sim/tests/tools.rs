@@ -176,3 +176,53 @@ fn the_live_view_without_its_python_package_is_refused_before_the_run() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains(".rrd"));
 }
+
+#[test]
+fn study_results_carry_their_provenance() {
+    let trn = env!("CARGO_BIN_EXE_trn");
+    let cmp = tmp("compare.json");
+    let c = cmp.to_str().unwrap();
+    stdout(&run(
+        trn,
+        &[
+            "compare",
+            "--seeds",
+            "1",
+            "--trials",
+            "3",
+            "--project-only",
+            "--report",
+            c,
+        ],
+    ));
+    let dir = tmp("lifelong");
+    let d = dir.to_str().unwrap();
+    std::fs::create_dir_all(&dir).unwrap();
+    stdout(&run(
+        trn,
+        &[
+            "lifelong",
+            "--trials",
+            "10",
+            "--initial",
+            "5",
+            "--snapshot-every",
+            "5",
+            "--snapshot-targets",
+            "2",
+            "--snapshot-grasps",
+            "1",
+            "--only",
+            "frozen",
+            "--out",
+            d,
+        ],
+    ));
+    for (file, cmd) in [(cmp, "compare"), (dir.join("lifelong.json"), "lifelong")] {
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+        assert_eq!(json["provenance"]["command_line"][1], cmd, "{json}");
+        assert!(json["provenance"]["git_commit"].is_string());
+        assert!(json["results"].as_array().is_some_and(|r| !r.is_empty()));
+    }
+}

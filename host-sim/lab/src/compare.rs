@@ -218,7 +218,7 @@ pub fn run(a: &CompareSpec) -> Result<()> {
     }
     print_table(&rows);
     if let Some(p) = &a.report {
-        crate::output::write_json(p, &rows)?;
+        crate::output::write_json(p, &crate::provenance::Stamped::new(&rows))?;
     }
     Ok(())
 }

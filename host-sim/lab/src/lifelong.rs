@@ -208,7 +208,10 @@ pub fn run(a: &LifelongSpec) -> Result<Vec<Curve>> {
         curves.push(curve);
     }
     print_table(&curves, a);
-    crate::output::write_json(&a.out.join("lifelong.json"), &curves)?;
+    crate::output::write_json(
+        &a.out.join("lifelong.json"),
+        &crate::provenance::Stamped::new(&curves),
+    )?;
     Ok(curves)
 }
 

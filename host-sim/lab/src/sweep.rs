@@ -206,7 +206,10 @@ pub fn run(a: &SweepSpec) -> Result<()> {
         rows.push(row);
     }
     print_table(&rows);
-    crate::output::write_json(&dir.join("sweep.json"), &rows)
+    crate::output::write_json(
+        &dir.join("sweep.json"),
+        &crate::provenance::Stamped::new(&rows),
+    )
 }
 
 fn file_name(name: &str) -> String {
