@@ -25,6 +25,9 @@ def headline(seed):
 
 
 def project(rows):
+    # `trn compare --report` writes {"provenance": .., "results": rows}; older files the rows
+    if isinstance(rows, dict):
+        rows = rows["results"]
     for r in rows:
         if r["name"] == "project":
             return r["seeds"]

@@ -17,7 +17,11 @@ LIMIT = 1.05
 
 
 def project(path):
-    rows = [r for r in json.load(open(path)) if r["name"] == "project"]
+    data = json.load(open(path))
+    # `trn compare --report` writes {"provenance": .., "results": rows}; older files the rows
+    if isinstance(data, dict):
+        data = data["results"]
+    rows = [r for r in data if r["name"] == "project"]
     if not rows:
         sys.exit(f"compact: no project row in {path}")
     return {s["seed"]: s for s in rows[0]["seeds"]}

@@ -55,6 +55,7 @@ impl Common {
             report: self.report.clone(),
             plot: self.plot.clone(),
             candump: self.candump.clone(),
+            csv: self.csv.clone(),
             ..Outputs::default()
         };
         Ok(spec)

@@ -11,7 +11,7 @@ use trn_controller::Law;
 /// protocol. The controller runs as a CAN node: in this process on a simulated clock, as a
 /// `controller-node` process on SocketCAN, as firmware in QEMU, or on a board.
 #[derive(Debug, Parser)]
-#[command(name = "trn", version, about, long_about = None)]
+#[command(name = "trn", version)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -51,6 +51,10 @@ pub enum Cmd {
     /// The table and JSON of a study from its run files (of every shard: `--shard I/N`),
     /// as the unsharded command makes them.
     Merge(MergeArgs),
+    /// Decode a candump log (from `--candump`, candump -l, a capture): every frame as the
+    /// message it carries, the segments of segmented messages included, then a line
+    /// `N frames, M messages, K undecoded`.
+    Decode(DecodeArgs),
 }
 
 /// Options of every command that runs a study of many runs.
@@ -137,6 +141,16 @@ pub struct MergeArgs {
     /// A life-long study's plot (.png or .svg).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+/// `trn decode`.
+#[derive(Debug, Args, Clone)]
+pub struct DecodeArgs {
+    /// The candump log.
+    pub log: PathBuf,
+    /// Print only the counts.
+    #[arg(long)]
+    pub summary: bool,
 }
 
 /// `trn lifelong`.
@@ -286,6 +300,18 @@ pub struct Common {
     /// Record the bus traffic as a candump log here (.log).
     #[arg(long)]
     pub candump: Option<PathBuf>,
+    /// Write one row per trial here (.csv): phase, kind, errors after the coarse and the
+    /// last move, fine moves, pose and grasp errors, failure.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Show the run in the rerun viewer while it goes on (the arm, its lights, the target,
+    /// each move's error, the learning curve); needs the Python package's live view:
+    /// `pip install './python[live]'` (`$TRN_PYTHON`, else python3).
+    #[arg(long)]
+    pub rerun: bool,
+    /// Save the same as a rerun recording here (.rrd; open it with `rerun FILE`).
+    #[arg(long)]
+    pub rerun_save: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,

@@ -10,7 +10,9 @@
 
 pub mod args;
 pub mod cli;
+pub mod decode;
 mod error;
+pub mod live;
 #[cfg(feature = "plot")]
 pub mod picture;
 #[cfg(feature = "plot")]

@@ -4,6 +4,8 @@
 use plotters::prelude::*;
 use std::path::Path;
 
+use crate::plot::{fonts, side_legend, with_legend, Mark};
+
 use trn_plant::joint::Joint;
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::vec3::V3;
@@ -31,9 +33,11 @@ pub fn hysteresis(cfg: &SimConfig, joint: usize, path: &Path) -> R {
             (p, j.angle_deg())
         })
         .collect();
-    let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
+    fonts();
+    let root = BitMapBackend::new(path, (1100, 650)).into_drawing_area();
     root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
+    let (area, side) = with_legend(&root);
+    let mut chart = ChartBuilder::on(&area)
         .caption(
             format!(
                 "Joint {} ({}): pressure difference vs angle (cf. Fig. 8.2)",
@@ -51,19 +55,15 @@ pub fn hysteresis(cfg: &SimConfig, joint: usize, path: &Path) -> R {
         .x_desc("pressure difference (normalised)")
         .y_desc("joint angle (deg)")
         .draw()?;
-    chart
-        .draw_series(LineSeries::new(up, RED.stroke_width(2)))?
-        .label("pressure increasing")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
-    chart
-        .draw_series(LineSeries::new(down, BLUE.stroke_width(2)))?
-        .label("pressure decreasing")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .border_style(BLACK)
-        .draw()?;
+    chart.draw_series(LineSeries::new(up, RED.stroke_width(2)))?;
+    chart.draw_series(LineSeries::new(down, BLUE.stroke_width(2)))?;
+    side_legend(
+        &side,
+        &[
+            ("pressure increasing".into(), RED, Mark::Line),
+            ("pressure decreasing".into(), BLUE, Mark::Line),
+        ],
+    )?;
     root.present()?;
     Ok(())
 }
@@ -87,9 +87,21 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
         trn_plant::vec3::add(&cyl.centre, &half),
         trn_plant::vec3::sub(&cyl.centre, &half),
     ];
-    let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
+    fonts();
+    let root = BitMapBackend::new(path, (1400 + crate::plot::LEGEND_W, 1000)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (top, bottom) = root.split_vertically(500);
+    let (main, side) = with_legend(&root);
+    side_legend(
+        &side,
+        &[
+            ("arm: base, shoulder,".into(), BLACK, Mark::Line),
+            ("elbow, wrist, gripper".into(), WHITE, Mark::Dot),
+            ("lights p, q".into(), RED, Mark::Dot),
+            ("cylinder".into(), GREEN, Mark::Line),
+            ("cylinder centre".into(), BLUE, Mark::Dot),
+        ],
+    )?;
+    let (top, bottom) = main.split_vertically(500);
     let (side, plan) = top.split_horizontally(700);
     let (cam0, cam1) = bottom.split_horizontally(700);
     for (area, (a, b), name) in [
@@ -102,7 +114,10 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
             .x_label_area_size(30)
             .y_label_area_size(45)
             .build_cartesian_2d(-100f64..1200.0, -600f64..1200.0)?;
-        ch.configure_mesh().draw()?;
+        ch.configure_mesh()
+            .x_label_formatter(&|x: &f64| format!("{x:.0}"))
+            .y_label_formatter(&|y: &f64| format!("{y:.0}"))
+            .draw()?;
         ch.draw_series(LineSeries::new(
             links.iter().map(|p| (p[a], p[b])),
             BLACK.stroke_width(4),
@@ -131,15 +146,15 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
             cfg.cameras[cam].resolution[1] as f64,
         );
         let mut ch = ChartBuilder::on(area)
-            .caption(
-                format!("camera {cam} image (px): lights p, q (red), cylinder centre (blue)"),
-                ("sans-serif", 18),
-            )
+            .caption(format!("camera {cam} image (pixels)"), ("sans-serif", 18))
             .margin(10)
             .x_label_area_size(30)
             .y_label_area_size(45)
             .build_cartesian_2d(0f64..w, h..0f64)?;
-        ch.configure_mesh().draw()?;
+        ch.configure_mesh()
+            .x_label_formatter(&|x: &f64| format!("{x:.0}"))
+            .y_label_formatter(&|y: &f64| format!("{y:.0}"))
+            .draw()?;
         for i in 0..2 {
             let p = obs.points[2 * i + cam];
             if p.status == trn_plant::PointStatus::Valid {

@@ -241,7 +241,7 @@ pub fn merge(paths: &[PathBuf], json: Option<&Path>) -> Result<Finished> {
         .collect::<std::result::Result<Vec<_>, _>>()?;
     let finished = study::finish(files)?;
     if let Some(p) = json {
-        trn_lab::output::write_json(p, &finished.json)?;
+        trn_lab::output::write_json(p, &trn_lab::provenance::Stamped::new(&finished.json))?;
     }
     print!("{}", finished.table);
     Ok(finished)

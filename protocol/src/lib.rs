@@ -7,7 +7,8 @@
 //!   CRC-32 for long ones on CAN 2.0, one FD frame on CAN FD.
 //! * [`Reassembler`]: bounded reassembly and decoding with typed errors.
 //! * [`HeartbeatMonitor`]: safe state on heartbeat loss.
-//! * [`candump`]: the candump log format.
+//! * [`candump`]: the candump log format; `decode` (feature `std`): a log's frames as
+//!   messages, segmented ones included.
 //! * `bus` (feature `std`): the in-process virtual bus and SocketCAN (feature `socketcan`).
 //!
 //! The wire format is specified in `protocol/SPEC.md`.
@@ -29,6 +30,8 @@ pub mod slcan;
 
 #[cfg(feature = "std")]
 pub mod bus;
+#[cfg(feature = "std")]
+pub mod decode;
 
 pub use envelope::{BusMode, Envelope};
 pub use error::{Error, Result};

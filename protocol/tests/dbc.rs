@@ -107,3 +107,30 @@ fn interop_log_round_trips() {
         .collect();
     assert_eq!(got, dbc_traffic::traffic());
 }
+
+/// The DBC declares every segmented id (network attribute `TrnSegmented`) with its kind,
+/// payload length and CAN 2.0 segment count, so a tool reading the DBC knows which frames
+/// it cannot decode alone, and which decoder to use.
+#[test]
+fn dbc_declares_exactly_the_segmented_ids() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/trn.dbc")).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("BA_ \"TrnSegmented\""))
+        .expect("BA_ \"TrnSegmented\" in trn.dbc");
+    let list = line.split('"').nth(3).unwrap();
+    let mut declared = Vec::new();
+    for entry in list.split(';') {
+        let w: Vec<&str> = entry.split_whitespace().collect();
+        let raw = u16::from_str_radix(w[0].trim_start_matches("0x"), 16).unwrap();
+        let id = CanId::from_raw(raw).unwrap();
+        assert_eq!(w[1], format!("{:?}", id.kind));
+        assert_eq!(w[2].parse::<usize>().unwrap(), id.kind.wire_len());
+        assert_eq!(w[3].parse::<usize>().unwrap(), segment_count(id.kind));
+        declared.push(raw);
+    }
+    let long: Vec<u16> = (0..=MAX_STANDARD_ID)
+        .filter(|&raw| CanId::from_raw(raw).is_ok_and(|id| !id.kind.is_single_frame()))
+        .collect();
+    assert_eq!(declared, long);
+}

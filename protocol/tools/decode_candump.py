@@ -4,8 +4,9 @@
 usage: decode_candump.py trn.dbc traffic.log traffic.expected.jsonl
 
 Every frame whose id is in the DBC must have an expectation and decode to exactly the
-expected signal values (raw integers; enums and bools by value); frames whose id is not
-in the DBC (segments of long messages) are counted and skipped. Exits 1 on any mismatch.
+expected signal values (raw integers; enums and bools by value); every other frame must be
+of an id the DBC declares segmented (network attribute TrnSegmented), a segment of its
+message (the index within its count) or, on CAN FD, one frame of it. Exits 1 on any mismatch.
 """
 import json
 import re
@@ -19,6 +20,13 @@ LINE = re.compile(r"^\((\d+)\.(\d{6})\) (\S+) ([0-9A-Fa-f]{3})(##?)([0-9A-Fa-f]*
 def main(dbc_path, log_path, expected_path):
     db = cantools.database.load_file(dbc_path)
     ids = {m.frame_id for m in db.messages}
+    segmented = {}
+    for entry in db.dbc.attributes["TrnSegmented"].value.split(";"):
+        can_id, kind, length, count = entry.split()
+        segmented[int(can_id, 16)] = (kind, int(length), int(count))
+    if ids & segmented.keys():
+        print(f"ids both single-frame and segmented: {sorted(ids & segmented.keys())}")
+        return 1
     expected = {}
     with open(expected_path) as f:
         for line in f:
@@ -44,6 +52,15 @@ def main(dbc_path, log_path, expected_path):
             if n in expected:
                 print(f"line {n}: id {can_id:#x} expected in the DBC")
                 errors += 1
+            elif can_id not in segmented:
+                print(f"line {n}: id {can_id:#x} neither a DBC message nor declared segmented")
+                errors += 1
+            elif m.group(5) == "#" and (payload[0] & 0x0F) >= segmented[can_id][2]:
+                print(f"line {n}: segment {payload[0] & 0x0F} of a {segmented[can_id][2]}-segment {segmented[can_id][0]}")
+                errors += 1
+            elif m.group(5) == "##" and len(payload) < segmented[can_id][1] + 4:
+                print(f"line {n}: FD {segmented[can_id][0]} of {len(payload)} bytes")
+                errors += 1
             skipped += 1
             continue
         want = expected.get(n)
@@ -66,7 +83,8 @@ def main(dbc_path, log_path, expected_path):
         errors += 1
     names = {db.get_message_by_frame_id(e["id"]).name for e in expected.values()}
     print(f"cantools {cantools.__version__}: {decoded} single-frame messages decoded "
-          f"({len(names)} distinct DBC messages of {len(db.messages)}), {skipped} segment frames skipped, "
+          f"({len(names)} distinct DBC messages of {len(db.messages)}), {skipped} frames of declared "
+          f"segmented kinds ({len(segmented)} ids) checked, "
           f"{errors} errors")
     return 1 if errors else 0
 

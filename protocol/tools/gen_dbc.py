@@ -62,6 +62,30 @@ KINDS = [
 ]
 
 
+# Segmented ("long") kinds: more than 8 bytes, so not DBC messages. On CAN 2.0 each is cut
+# into segments (SPEC.md 4.3), on CAN FD sent whole with a CRC-32 (4.2); the DBC lists them
+# in the network attribute TrnSegmented ("id kind payload-bytes segments", ";"-separated) and
+# says in its comment how to decode them. (kind, code, payload length, nodes)
+SEGMENTED = [
+    ("Observation", 0x11, 39, [8]),
+    ("SessionConfig", 0x19, 17, [1, BROADCAST]),
+    ("ConfirmedSessionConfig", 0x1A, 21, [1]),
+    ("SupervisedPressure", 0x20, 24, [1]),
+    ("Stage1Target", 0x21, 39, [1]),
+    ("Stage2Target", 0x22, 23, [1]),
+    ("TrialReport", 0x28, 15, [1]),
+    ("TablesStatus", 0x39, 21, [1]),
+    ("TableWriteBegin", 0x3A, 16, [1]),
+    ("TableReadChunk", 0x79, 50, [1]),
+    ("TableWriteChunk", 0x7A, 50, [1]),
+]
+
+
+def segments(length):
+    """Segments of a payload on CAN 2.0: 6 stream bytes in the first, 7 in each next."""
+    return 1 + -(-(length + 4 - 6) // 7)
+
+
 def sender_of(kind, node, sender):
     if kind == "ModeChange":
         # Runner -> controller; the controller broadcasts the mode to every node.
@@ -101,7 +125,23 @@ def main():
                     choices = " ".join(f'{i} "{v}"' for i, v in enumerate(ENUMS[enum]))
                     vals.append(f"VAL_ {can_id} {sig} {choices} ;\n")
     out.append("\n")
-    out.append('CM_ "TRN CAN protocol, single-frame messages. Id = kind << 4 | node. See protocol/SPEC.md.";\n')
+    out.append(
+        'CM_ "TRN CAN protocol. Id = kind << 4 | node. See protocol/SPEC.md. The messages here are '
+        "the single-frame kinds. The segmented kinds (attribute TrnSegmented: id, kind, payload "
+        "bytes, segments on CAN 2.0) are no DBC messages: on CAN 2.0 a message is cut into "
+        "segments sent with its id, byte 0 = transfer << 4 | segment, segment 0 byte 1 = the "
+        "payload length, then payload and CRC-32 (SPEC.md 4.3); on CAN FD one frame, payload and "
+        "CRC-32 (4.2). Decode them with trn decode LOG or the Python package "
+        '(trn_softarm.decode_candump).";\n'
+    )
+    out.append('BA_DEF_  "TrnSegmented" STRING ;\n')
+    out.append('BA_DEF_DEF_  "TrnSegmented" "";\n')
+    listed = "; ".join(
+        f"0x{(code << 4) | node:03X} {kind} {length} {segments(length)}"
+        for kind, code, length, nodes in SEGMENTED
+        for node in nodes
+    )
+    out.append(f'BA_ "TrnSegmented" "{listed}";\n')
     out.extend(vals)
     print("".join(out), end="")
 

@@ -28,6 +28,7 @@ pub mod observe;
 pub mod oracle;
 pub mod output;
 pub mod ports;
+pub mod provenance;
 pub mod records;
 pub mod reference;
 pub mod report;
@@ -43,8 +44,10 @@ pub mod study;
 pub mod summary;
 pub mod sweep;
 pub mod targets;
+pub mod trial_csv;
 
 pub use error::{io, LabError, Result};
 pub use observe::{Observer, Unobserved};
+pub use provenance::Provenance;
 pub use report::Report;
 pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};

@@ -291,7 +291,11 @@ pub struct Report {
     pub evaluation_trials: usize,
     /// Retries, timeouts and give-ups on both sides, and the injected faults.
     pub bus_stats: BusReport,
-    /// The whole specification of the run.
+    /// What produced the report: the version, the git commit (and whether the sources
+    /// differed from it), the command line.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<crate::provenance::Provenance>,
+    /// The whole specification of the run, the plant's full configuration included.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spec: Option<crate::spec::RunSpec>,
     /// The conformance suite's checks (`trn conformance`).
@@ -311,6 +315,7 @@ impl Report {
             trials_this_run: spec.plan.trials,
             seed: spec.seed,
             bus: spec.bus.spec.to_string(),
+            provenance: Some(crate::provenance::Provenance::current()),
             spec: Some(spec.clone()),
             ..Default::default()
         }

@@ -90,7 +90,9 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     };
     let bus_name = spec.bus.spec.to_string();
     let profile = spec.bus.spec.profile(spec.bus.external_controller);
-    let mut setup = Setup::new(start, observer);
+    // every trial's CSV row (`--csv`) is kept beside the caller's observer
+    let mut rows = crate::trial_csv::TrialRows::new(observer, spec.outputs.csv.is_some());
+    let mut setup = Setup::new(start, &mut rows);
     let trained: Option<Box<Controller>> = match profile.controller {
         ControllerSite::Inline if cfg.law == Law::Model => {
             // the model-based reference: the simulator's own model, in process only
@@ -177,6 +179,7 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
         }
     };
     let end_state = setup.take_end_state();
+    drop(setup);
     if let Some(p) = outputs.checkpoint() {
         let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
         match (&trained, end_state) {
@@ -196,6 +199,9 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     }
     report.wall_s = started.elapsed().as_secs_f64();
     outputs.write_report(&report)?;
+    if let (Some(p), Some(csv)) = (&spec.outputs.csv, rows.csv()) {
+        crate::output::write_durably(p, csv.as_bytes())?;
+    }
     Ok(report)
 }
 

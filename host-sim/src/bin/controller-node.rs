@@ -12,7 +12,7 @@ use trn_controller::Law;
 /// interface (vcan0 or a real adapter). It answers the protocol of protocol/SPEC.md until
 /// the runner ends the session (`ModeChange{Idle}`), then saves its tables if asked.
 #[derive(Debug, Parser)]
-#[command(name = "controller-node", version, about, long_about = None)]
+#[command(name = "controller-node", version)]
 struct Args {
     /// SocketCAN interface.
     #[arg(long, default_value = "vcan0")]

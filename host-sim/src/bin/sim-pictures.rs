@@ -12,7 +12,7 @@ use trn_sim::picture;
 /// hysteresis loop (like the chapter's Fig. 8.2) and the arm with a cylinder beside both
 /// camera images.
 #[derive(Debug, Parser)]
-#[command(name = "sim-pictures", version, about, long_about = None)]
+#[command(name = "sim-pictures", version)]
 struct Args {
     /// Output directory.
     #[arg(long, default_value = "out")]

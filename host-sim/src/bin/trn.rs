@@ -5,15 +5,29 @@
 use clap::Parser;
 use std::process::ExitCode;
 use trn_lab::{lifelong, run, summary, Command, RunSpec};
-use trn_sim::cli::{Cli, Cmd};
+use trn_sim::cli::{Cli, Cmd, Common};
+use trn_sim::live::{Both, LiveStream};
 use trn_sim::progress::{Interrupts, Progress};
 use trn_sim::studies;
 use trn_sim::{CliError, Result};
 
-/// Runs one specification with the progress bar and the interrupts; draws its plot.
-fn run_one(spec: RunSpec, interrupts: &Interrupts, print_training: bool) -> Result<()> {
+/// Runs one specification with the progress bar and the interrupts (and the live view,
+/// `--rerun`/`--rerun-save`); draws its plot.
+fn run_one(
+    spec: RunSpec,
+    common: &Common,
+    interrupts: &Interrupts,
+    print_training: bool,
+) -> Result<()> {
     let mut progress = Progress::new(spec.command == Command::Conformance, interrupts.clone());
-    let report = run::run(&spec, &mut progress)?;
+    let report = if common.rerun || common.rerun_save.is_some() {
+        let mut live = LiveStream::start(&spec.plant, common.rerun, common.rerun_save.as_deref())?;
+        let report = run::run(&spec, &mut Both(&mut progress, &mut live));
+        live.close()?;
+        report?
+    } else {
+        run::run(&spec, &mut progress)?
+    };
     if let Some(p) = &spec.outputs.plot {
         plot(&report, p)?;
     }
@@ -54,20 +68,23 @@ fn main() -> ExitCode {
         Cmd::Train(a) => a
             .spec()
             .map_err(CliError::from)
-            .and_then(|s| run_one(s, &interrupts, true)),
+            .and_then(|s| run_one(s, &a.common, &interrupts, true)),
         Cmd::Eval(a) => a
             .spec(Command::Eval)
             .map_err(CliError::from)
-            .and_then(|s| run_one(s, &interrupts, false)),
+            .and_then(|s| run_one(s, &a.common, &interrupts, false)),
         Cmd::Grasp(a) => a
             .spec(Command::Grasp)
             .map_err(CliError::from)
-            .and_then(|s| run_one(s, &interrupts, false)),
+            .and_then(|s| run_one(s, &a.common, &interrupts, false)),
         Cmd::Conformance(a) => a
             .common
             .spec(Command::Conformance, 0)
             .map_err(CliError::from)
-            .and_then(|s| run_one(s, &interrupts, false)),
+            .and_then(|s| run_one(s, &a.common, &interrupts, false)),
+        Cmd::Decode(a) => {
+            trn_sim::decode::decode(&a.log, a.summary, &mut std::io::stdout().lock()).map(drop)
+        }
         Cmd::Compare(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
             let opts = a.opts.options(&a.out);
             studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)

@@ -365,7 +365,7 @@ pub fn run(
     }
     let finished = finish(outcome.into_files())?;
     if let Some(p) = json {
-        crate::output::write_json(p, &finished.json)?;
+        crate::output::write_json(p, &crate::provenance::Stamped::new(&finished.json))?;
     }
     ran.finished = Some(finished);
     Ok(ran)

@@ -1,0 +1,271 @@
+//! `--rerun` and `--rerun-save FILE`: the run in the rerun viewer while it goes on, or saved
+//! as a recording. [`LiveStream`] is an observer of the run (it gets every trial's record)
+//! that sends each event, one JSON object a line, to `python -m trn_softarm.live` (the
+//! Python package's live view, on the rerun Python SDK: `pip install './python[live]'`;
+//! the interpreter is `$TRN_PYTHON`, else `python3`). The recording is written as every
+//! output is (`trn_lab::output`): checked before the run, into a temporary file that
+//! becomes FILE when the viewer's process ended well.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::process::{Child, ChildStdin, Command, Stdio};
+
+use serde_json::{json, Value};
+use trn_lab::output::{check_path, Kind, PendingFile};
+use trn_lab::records::{Phase, TrialRecord};
+use trn_lab::{metrics, scoring, LabError, Observer};
+use trn_plant::kinematics::{forward, lights};
+use trn_plant::nodes::Sight;
+use trn_plant::{Readings, SimConfig};
+
+use crate::{CliError, Result};
+
+/// The interpreter that runs the live view.
+fn python() -> String {
+    std::env::var("TRN_PYTHON").unwrap_or_else(|_| "python3".into())
+}
+
+fn usage(m: String) -> CliError {
+    CliError::Lab(LabError::Usage(m))
+}
+
+/// The run's events on their way to the live view's process.
+pub struct LiveStream {
+    child: Child,
+    stdin: Option<BufWriter<ChildStdin>>,
+    cfg: SimConfig,
+    recording: Option<PendingFile>,
+    /// The first write that failed (the process is gone): reported at the end.
+    broken: Option<std::io::Error>,
+}
+
+/// A reading as pixels, `null` for a light not read.
+fn pixels<const K: usize>(r: &Readings<K>) -> Vec<Value> {
+    r.points
+        .iter()
+        .flat_map(|p| {
+            let ok = p.x.is_finite() && p.y.is_finite();
+            [ok.then_some(p.x), ok.then_some(p.y)]
+        })
+        .map(|x| json!(x))
+        .collect()
+}
+
+fn finite(x: f32) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+fn phase_name(p: Phase) -> &'static str {
+    match p {
+        Phase::Training => "training",
+        Phase::Snapshot(_) => "snapshot",
+        Phase::SnapshotGrasp(_) => "snapshot-grasp",
+        Phase::Deployment => "deployment",
+        Phase::Evaluation => "evaluation",
+        Phase::VisitAndReturn => "visit-and-return",
+        Phase::Grasping => "grasping",
+    }
+}
+
+impl LiveStream {
+    /// Starts the live view's process: a viewer when `spawn`, the recording `save`. Refuses
+    /// (a usage error, before anything runs) a recording path that breaks the output rule,
+    /// or a Python without the live view.
+    pub fn start(cfg: &SimConfig, spawn: bool, save: Option<&Path>) -> Result<LiveStream> {
+        if let Some(p) = save {
+            check_path(p, Kind::Recording)?;
+        }
+        let py = python();
+        let probe = Command::new(&py)
+            .args(["-c", "import trn_softarm.live"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .output();
+        match probe {
+            Ok(o) if o.status.success() => {}
+            Ok(o) => {
+                return Err(usage(format!(
+                    "--rerun/--rerun-save need the live view in {py}: pip install './python[live]' ({})",
+                    String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or("")
+                )))
+            }
+            Err(e) => return Err(usage(format!("--rerun/--rerun-save: cannot run {py}: {e}"))),
+        }
+        let recording = save.map(PendingFile::create).transpose()?;
+        let mut cmd = Command::new(&py);
+        cmd.args(["-m", "trn_softarm.live", "--app", "trn"]);
+        if spawn {
+            cmd.arg("--spawn");
+        }
+        if let Some(r) = &recording {
+            cmd.arg("--save").arg(r.temporary_path());
+        }
+        // its own process group: an interrupt at the terminal stops the run at a trial
+        // boundary (`progress`), and the live view then ends with what the run did
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+        let mut child = cmd
+            .stdin(Stdio::piped())
+            .spawn()
+            .map_err(|e| usage(format!("cannot start {py} -m trn_softarm.live: {e}")))?;
+        let stdin = child.stdin.take().map(BufWriter::new);
+        Ok(LiveStream {
+            child,
+            stdin,
+            cfg: cfg.clone(),
+            recording,
+            broken: None,
+        })
+    }
+
+    fn send(&mut self, event: Value) {
+        if let (Some(w), None) = (&mut self.stdin, &self.broken) {
+            if let Err(e) = writeln!(w, "{event}") {
+                self.broken = Some(e);
+            }
+        }
+    }
+
+    /// Ends the stream: the process gets the end of its input and is waited for; the
+    /// recording becomes its file when the process ended well.
+    pub fn close(mut self) -> Result<()> {
+        let flushed = self.stdin.take().map_or(Ok(()), |mut w| w.flush());
+        let status = self.child.wait();
+        let fail = |m: String| Err(CliError::Plot(format!("live view: {m}")));
+        match status {
+            Ok(s) if s.success() => {}
+            Ok(s) => return fail(format!("python -m trn_softarm.live ended with {s}")),
+            Err(e) => return fail(e.to_string()),
+        }
+        if let Some(e) = self.broken.take().or(flushed.err()) {
+            return fail(e.to_string());
+        }
+        match self.recording.take() {
+            Some(r) => Ok(r.commit()?),
+            None => Ok(()),
+        }
+    }
+
+    /// A trial's event: each move's arm, lights, reading and error, its final errors.
+    fn trial_event(&self, r: &TrialRecord) -> Value {
+        let t = &r.target;
+        let moves: Vec<Value> = r
+            .captures
+            .iter()
+            .map(|c| {
+                let q = c.pose.joint_angles_deg.map(f64::to_radians);
+                let chain = forward(&self.cfg, &q);
+                let links = [
+                    [0.0, 0.0, 0.0],
+                    chain.shoulder,
+                    chain.elbow,
+                    chain.wrist,
+                    chain.pose.centre_mm,
+                ];
+                let (seen, target, errs) = match &c.sight {
+                    Sight::Lights { noisy, truth } => (
+                        pixels(noisy),
+                        t.v.to_vec(),
+                        (
+                            noisy.to_vector().map(|v| trn_lab::targets::dist(&v, &t.v)),
+                            truth
+                                .to_vector()
+                                .map(|v| trn_lab::targets::dist(&v, &t.v_true)),
+                        ),
+                    ),
+                    Sight::Centre { noisy, truth } => (
+                        pixels(noisy),
+                        t.c.to_vec(),
+                        (
+                            noisy.to_vector().map(|v| trn_lab::targets::dist(&v, &t.c)),
+                            truth
+                                .to_vector()
+                                .map(|v| trn_lab::targets::dist(&v, &t.c_true)),
+                        ),
+                    ),
+                };
+                json!({
+                    "time_s": c.time_s,
+                    "links": links,
+                    "lights": lights(&self.cfg, &chain.pose),
+                    "seen": seen,
+                    "target": target.iter().map(|&x| finite(x)).collect::<Vec<_>>(),
+                    "measured_px": errs.0.map(finite),
+                    "true_px": errs.1.map(finite),
+                })
+            })
+            .collect();
+        let target_lights = t
+            .pose
+            .centre_mm
+            .iter()
+            .all(|x| x.is_finite())
+            .then(|| lights(&self.cfg, &t.pose));
+        let last = |s: Option<scoring::StageScore>| s.map(|s| finite(s.final_px()));
+        json!({
+            "event": "trial",
+            "trial": r.trial,
+            "phase": phase_name(r.phase),
+            "moves": moves,
+            "target_lights": target_lights,
+            "stage1_final_px": last(scoring::stage1(r)),
+            "stage2_final_px": last(scoring::stage2(r)),
+            "failure": metrics::failure(r).map(|f| f.reason()),
+        })
+    }
+}
+
+impl Observer for LiveStream {
+    fn start(&mut self, trials: u64) {
+        let cams: Vec<[f64; 3]> = self.cfg.cameras.iter().map(|c| c.position_mm).collect();
+        let title = std::env::args().collect::<Vec<_>>().join(" ");
+        self.send(json!({"event": "start", "trials": trials, "cameras": cams, "title": title}));
+    }
+    fn phase(&mut self, name: &str) {
+        self.send(json!({"event": "phase", "name": name}));
+    }
+    fn trial(&mut self, record: &TrialRecord) {
+        let e = self.trial_event(record);
+        self.send(e);
+    }
+    fn message(&mut self, text: &str) {
+        self.send(json!({"event": "message", "text": text}));
+    }
+    fn finish(&mut self) {
+        self.send(json!({"event": "finish"}));
+    }
+}
+
+/// Two observers watching one run (the progress bar and the live view); the first decides
+/// when to stop.
+pub struct Both<'a>(pub &'a mut dyn Observer, pub &'a mut dyn Observer);
+
+impl Observer for Both<'_> {
+    fn start(&mut self, trials: u64) {
+        self.0.start(trials);
+        self.1.start(trials);
+    }
+    fn phase(&mut self, name: &str) {
+        self.0.phase(name);
+        self.1.phase(name);
+    }
+    fn trial(&mut self, record: &TrialRecord) {
+        self.0.trial(record);
+        self.1.trial(record);
+    }
+    fn message(&mut self, text: &str) {
+        self.0.message(text);
+        self.1.message(text);
+    }
+    fn finish(&mut self) {
+        self.0.finish();
+        self.1.finish();
+    }
+    fn stop_requested(&self) -> bool {
+        self.0.stop_requested() || self.1.stop_requested()
+    }
+}

@@ -1,0 +1,54 @@
+"""trn_softarm: the TRN soft-arm project from Python.
+
+- :class:`SoftArmEnv`: a Gymnasium environment of the simulated SoftArm (registered as
+  ``trn_softarm/SoftArm-v0``; ``gym.make_vec`` gives its vector form).
+- :class:`Controller`: the project's controllers (the TRN, the Broyden servo) on numpy
+  arrays, to compare an agent with.
+- :func:`decode_candump`, :func:`decode_frames`: the CAN protocol's frames and candump logs
+  as messages, segmented ones included, through the Rust decoder.
+
+The simulation, the controllers and the decoder are the project's Rust crates
+(``trn_softarm._native``); this package adds numpy arrays, Gymnasium and the live view.
+"""
+
+from ._native import __version__, config_json
+from .controllers import Controller, run_episode
+from .protocol import decode_candump, decode_frames
+
+__all__ = [
+    "__version__",
+    "SoftArmEnv",
+    "Controller",
+    "run_episode",
+    "decode_candump",
+    "decode_frames",
+    "config_json",
+    "register_envs",
+]
+
+ENV_ID = "trn_softarm/SoftArm-v0"
+
+
+def register_envs():
+    """Registers ``trn_softarm/SoftArm-v0`` with Gymnasium (done on import when Gymnasium
+    is installed)."""
+    import gymnasium
+
+    if ENV_ID not in gymnasium.registry:
+        gymnasium.register(id=ENV_ID, entry_point="trn_softarm.env:SoftArmEnv")
+
+
+def __getattr__(name):
+    # the environment needs Gymnasium: imported when asked for, so the decoder and the
+    # controllers work without it
+    if name == "SoftArmEnv":
+        from .env import SoftArmEnv
+
+        return SoftArmEnv
+    raise AttributeError(f"module 'trn_softarm' has no attribute {name!r}")
+
+
+try:
+    register_envs()
+except ImportError:
+    pass

@@ -1,0 +1,182 @@
+//! [`Ctrl`]: the project's controller (the TRN, or the Broyden servo it is compared with) on
+//! plain lists of floats, as the CAN node drives it: a target starts a trial, each reading
+//! after a move gives the next command, until the trial is done.
+
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use trn_controller::presets::{configure, Ablation, ImageSize, Preset};
+use trn_controller::{
+    Command, Config, Controller, FineMoves, Law, Observation, ObserveKind, StageOutcome, Task,
+};
+
+/// A controller (see the module). Its 230 KB of tables live on the heap.
+#[pyclass(module = "trn_softarm._native")]
+pub struct Ctrl {
+    ctrl: Box<Controller>,
+    /// The reading the last move asked for.
+    expect: Option<ObserveKind>,
+}
+
+fn err(e: trn_controller::Error) -> PyErr {
+    PyRuntimeError::new_err(format!("controller: {e}"))
+}
+
+fn array<const N: usize>(v: &[f32], what: &str) -> PyResult<[f32; N]> {
+    let a: [f32; N] = v.try_into().map_err(|_| {
+        PyValueError::new_err(format!("{what}: {N} values expected, got {}", v.len()))
+    })?;
+    if a.iter().any(|x| !x.is_finite()) {
+        return Err(PyValueError::new_err(format!("{what}: not finite: {a:?}")));
+    }
+    Ok(a)
+}
+
+/// A command for Python: `("move", pressures, joints)` or `("done", outcome)`.
+fn command<'py>(py: Python<'py>, c: Command) -> PyResult<(String, Bound<'py, PyAny>)> {
+    match c {
+        Command::Move {
+            pressures, joints, ..
+        } => {
+            let p: Vec<f32> = pressures[..joints as usize].to_vec();
+            Ok(("move".into(), p.into_pyobject(py)?.into_any()))
+        }
+        Command::Done(o) => {
+            let d = PyDict::new(py);
+            for (name, s) in [("stage1", o.stage1), ("stage2", o.stage2)] {
+                d.set_item(name, s.map(|s| outcome(py, &s)).transpose()?)?;
+            }
+            d.set_item("close_gripper", o.close_gripper)?;
+            Ok(("done".into(), d.into_any()))
+        }
+    }
+}
+
+fn outcome<'py>(py: Python<'py>, s: &StageOutcome) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("learned", s.learned)?;
+    d.set_item("supervised", s.supervised)?;
+    d.set_item("coarse_error_px", s.coarse_error)?;
+    d.set_item("final_error_px", s.final_error)?;
+    d.set_item("fine_moves", s.fine_moves)?;
+    d.set_item("cap_hit", s.cap_hit)?;
+    d.set_item("tolerance_px", s.tolerance)?;
+    d.set_item("learning_step", s.t)?;
+    Ok(d)
+}
+
+#[pymethods]
+impl Ctrl {
+    /// A controller of `law` (`trn` or `broyden`) configured by `preset` and `ablation` for
+    /// cameras of `image` size, its tables seeded from `seed`.
+    #[new]
+    #[pyo3(signature = (law = "trn", preset = "project", ablation = "none", seed = 0, image = (1024, 768)))]
+    fn new(
+        law: &str,
+        preset: &str,
+        ablation: &str,
+        seed: u64,
+        image: (u16, u16),
+    ) -> PyResult<Ctrl> {
+        let bad = |what: &str, name: &str| PyValueError::new_err(format!("no {what} {name:?}"));
+        let law = Law::from_name(law).ok_or_else(|| bad("law", law))?;
+        if law == Law::Model {
+            return Err(PyValueError::new_err(
+                "the model-based reference runs in the simulator only (trn train --controller model)",
+            ));
+        }
+        let preset = Preset::from_name(preset).ok_or_else(|| bad("preset", preset))?;
+        let ablation = Ablation::from_name(ablation).ok_or_else(|| bad("ablation", ablation))?;
+        let image = ImageSize {
+            width: image.0,
+            height: image.1,
+        };
+        let cfg = Config {
+            law,
+            ..configure(preset, ablation, image)
+        };
+        let mut ctrl = Box::new(Controller::new(cfg));
+        ctrl.init_random(seed);
+        Ok(Ctrl { ctrl, expect: None })
+    }
+
+    /// Starts a trial of `stage` (1: target lights p, q, 8 values; 2: the gripper centre, 4)
+    /// learning from it when `learn`; `fine_moves` exactly that many fine moves (None: the
+    /// controller's own stop rule); `supervised` the target's pressures (priming, stage 1).
+    #[pyo3(signature = (stage, target, learn = true, fine_moves = None, supervised = None))]
+    fn begin<'py>(
+        &mut self,
+        py: Python<'py>,
+        stage: u8,
+        target: Vec<f32>,
+        learn: bool,
+        fine_moves: Option<u8>,
+        supervised: Option<Vec<f32>>,
+    ) -> PyResult<(String, Bound<'py, PyAny>)> {
+        if self.ctrl.busy() {
+            self.ctrl.abort();
+        }
+        let supervised = supervised
+            .map(|p| array::<5>(&p, "supervised"))
+            .transpose()?;
+        let task = match stage {
+            1 => Task::Stage1 {
+                v: array(&target, "target")?,
+                supervised,
+                learn,
+            },
+            2 => Task::Stage2 {
+                c: array(&target, "target")?,
+                learn,
+            },
+            _ => return Err(PyValueError::new_err("stage is 1 or 2")),
+        };
+        let fine = fine_moves.map_or(FineMoves::Policy, FineMoves::Exactly);
+        let c = self.ctrl.begin_with(task, fine).map_err(err)?;
+        self.note(&c);
+        command(py, c)
+    }
+
+    /// The reading after the last move (8 or 4 values, as the move asked); the next command.
+    fn observe<'py>(
+        &mut self,
+        py: Python<'py>,
+        reading: Vec<f32>,
+    ) -> PyResult<(String, Bound<'py, PyAny>)> {
+        let obs = match self.expect {
+            Some(ObserveKind::Lights) => Observation::Lights(array(&reading, "reading")?),
+            Some(ObserveKind::Centre) => Observation::Centre(array(&reading, "reading")?),
+            None => return Err(PyRuntimeError::new_err("no trial is running")),
+        };
+        let c = self.ctrl.observe(obs).map_err(err)?;
+        self.note(&c);
+        command(py, c)
+    }
+
+    /// Abandons the running trial (nothing is learned from its last move).
+    fn abort(&mut self) {
+        self.ctrl.abort();
+        self.expect = None;
+    }
+
+    /// True while a trial runs.
+    #[getter]
+    fn busy(&self) -> bool {
+        self.ctrl.busy()
+    }
+
+    /// The control law's name.
+    #[getter]
+    fn law(&self) -> &'static str {
+        self.ctrl.config().law.name()
+    }
+}
+
+impl Ctrl {
+    fn note(&mut self, c: &Command) {
+        self.expect = match c {
+            Command::Move { observe, .. } => Some(*observe),
+            Command::Done(_) => None,
+        };
+    }
+}

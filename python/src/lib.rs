@@ -1,0 +1,32 @@
+//! `trn_softarm._native`: the Rust half of the Python package `trn_softarm`.
+//!
+//! - [`arm::Arm`]: the simulated SoftArm as an environment's core (a seeded plant, a
+//!   deployment-style target, moves read by the camera processor's vision), with the
+//!   pictures of both cameras ([`render`]).
+//! - [`control::Ctrl`]: the TRN or the Broyden servo on plain lists of floats: a task in,
+//!   pressures out, observations in.
+//! - [`decode`]: frames and candump logs as the protocol's messages, by the receivers' own
+//!   decoder.
+//!
+//! The Python layer (`python/python/trn_softarm/`) turns these into numpy arrays, a
+//! Gymnasium environment and the live view; nothing here imports numpy or Gymnasium.
+
+use pyo3::prelude::*;
+
+mod arm;
+mod control;
+mod decode;
+mod fields;
+mod render;
+
+/// The module `trn_softarm._native`.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<arm::Arm>()?;
+    m.add_class::<control::Ctrl>()?;
+    m.add_function(wrap_pyfunction!(decode::decode_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(decode::decode_candump, m)?)?;
+    m.add_function(wrap_pyfunction!(arm::config_json, m)?)?;
+    Ok(())
+}
