@@ -163,10 +163,17 @@ impl StudyArgs {
             &self.over.overrides(self.config.as_deref()),
             Some(&out),
         )?;
-        let json = self
-            .report
-            .clone()
-            .unwrap_or_else(|| out.join(format!("{}.json", study::slug(&file.name))));
+        let json = match &self.report {
+            Some(p) => p.clone(),
+            None => {
+                // the study's own folder holds its JSON: made here, as the run folder is
+                std::fs::create_dir_all(&out).map_err(|source| LabError::Io {
+                    path: out.clone(),
+                    source,
+                })?;
+                out.join(format!("{}.json", study::slug(&file.name)))
+            }
+        };
         Ok((s, out, json))
     }
 }

@@ -90,6 +90,12 @@ fn main() -> ExitCode {
             studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)
         }),
         Cmd::Sweep(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
+            std::fs::create_dir_all(&a.out).map_err(|source| {
+                CliError::from(trn_lab::LabError::Io {
+                    path: a.out.clone(),
+                    source,
+                })
+            })?;
             let (opts, json) = (a.opts.options(&a.out), a.out.join("sweep.json"));
             studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
         }),
