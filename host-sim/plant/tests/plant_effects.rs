@@ -299,4 +299,25 @@ fn the_named_configurations_load_and_differ() {
     assert_ne!(realistic, SimConfig::ideal());
     assert!(Plant::new(&realistic, 1).is_ok());
     assert!(load_sim_config(Some(std::path::Path::new("no-such-plant"))).is_err());
+    // every name loads, validates and is its own plant
+    let all: Vec<SimConfig> = SimConfig::NAMES
+        .iter()
+        .map(|n| load_sim_config(Some(std::path::Path::new(n))).unwrap())
+        .collect();
+    for (i, c) in all.iter().enumerate() {
+        c.validate().unwrap();
+        assert!(all[..i].iter().all(|o| o != c), "{} repeats", SimConfig::NAMES[i]);
+    }
+    // the realistic plant growing old: the realistic plant with exactly the drift and wear
+    // the aging configuration adds to the ideal one
+    let old = SimConfig::named("realistic-aging").unwrap();
+    assert_eq!(old.drift, SimConfig::aging().drift);
+    assert_eq!(
+        SimConfig {
+            drift: realistic.drift.clone(),
+            ..old.clone()
+        },
+        realistic
+    );
+    assert!(old.drift.temperature && old.drift.wear);
 }
