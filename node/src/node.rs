@@ -38,6 +38,8 @@ pub struct ControllerNode {
     cfg: NodeConfig,
     seq: u16,
     trial: Option<u32>,
+    /// The trial in progress updates the tables (it may not use estimated points).
+    learning: bool,
     pending: Pending,
     supervised: Option<(u32, [f32; 5])>,
     grasp: Option<PendingGrasp>,
@@ -75,6 +77,7 @@ impl ControllerNode {
             cfg,
             seq: 0,
             trial: None,
+            learning: false,
             pending: Pending::None,
             supervised: None,
             grasp: None,
@@ -95,6 +98,7 @@ impl ControllerNode {
                 repeated_targets: 0,
                 ignored: 0,
                 frame_errors: 0,
+                estimated: 0,
             },
         }
     }
@@ -426,6 +430,12 @@ impl ControllerNode {
             self.stats.aborted += 1;
         }
         self.trial = Some(trial);
+        self.learning = match task {
+            Task::Stage1 {
+                learn, supervised, ..
+            } => learn || supervised.is_some(),
+            Task::Stage2 { learn, .. } | Task::Grasp { learn, .. } => learn,
+        };
         self.pending = Pending::None;
         self.stats.trials += 1;
         match ctrl.begin_with(task, fine) {
@@ -449,13 +459,25 @@ impl ControllerNode {
             CaptureKind::GripperLights => 4,
             CaptureKind::GripperCentre => 2,
         };
+        // an estimate (a light hidden from one camera, placed by the camera processor from
+        // what it sees and the markers' last position) is good enough to move on with, not
+        // to learn from: the tables would take its error for the arm's
+        let usable = |s: PointStatus| {
+            s == PointStatus::Valid || (s == PointStatus::Estimated && !self.learning)
+        };
         for (i, p) in o.points[..used].iter().enumerate() {
-            if p.status != PointStatus::Valid {
+            if !usable(p.status) {
                 let detail = ((i as u32) << 8) | p.status as u32;
                 error(out, codes::INVALID_OBSERVATION, detail);
                 self.abort(ctrl, out);
                 return;
             }
+        }
+        if o.points[..used]
+            .iter()
+            .any(|p| p.status == PointStatus::Estimated)
+        {
+            self.stats.estimated = self.stats.estimated.saturating_add(1);
         }
         self.pending = Pending::None;
         match ctrl.observe(crate::exchange::reading(o)) {
