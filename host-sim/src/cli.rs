@@ -175,7 +175,8 @@ pub struct LifelongArgs {
     #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u64).range(0..=100_000))]
     pub snapshot_grasps: u64,
     /// Simulator configuration: `aging` (the default: the ideal plant with temperature
-    /// drift and bounded wear), another built-in one by name, or a TOML file.
+    /// drift and bounded wear), `realistic-aging` (the realistic plant with the same drift
+    /// and wear), another built-in one by name (`ideal`, `realistic`), or a TOML file.
     #[arg(long, default_value = "aging")]
     pub config: String,
     /// Only these controllers (comma-separated: frozen, project, lifelong, broyden).
@@ -239,7 +240,8 @@ pub struct Common {
     /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
     /// default: coupling, process noise, skewed loops, creep, camera outliers and
     /// dropouts, occlusion by hand and cylinder, lens distortion; `ideal`: none of it;
-    /// `aging`: the ideal plant with temperature drift and bounded wear).
+    /// `aging`: the ideal plant with temperature drift and bounded wear; `realistic-aging`:
+    /// the realistic plant with the same drift and wear).
     #[arg(long)]
     pub config: Option<String>,
     /// Bus: `inproc` (the controller node in this process on a simulated clock, the
@@ -383,7 +385,7 @@ pub struct CompareArgs {
     #[arg(long, conflicts_with = "configs")]
     pub project_only: bool,
     /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
-    /// default; `ideal`; `aging`).
+    /// default; `ideal`; `aging`; `realistic-aging`).
     #[arg(long)]
     pub config: Option<String>,
     /// Write every configuration's figures over the seeds as JSON here (.json).
@@ -422,6 +424,25 @@ mod tests {
         }
         for law in Law::ALL {
             assert!(help.contains(law.name()), "{} missing", law.name());
+        }
+    }
+
+    /// Every help text that takes `--config` names every built-in configuration.
+    #[test]
+    fn config_help_lists_every_named_plant() {
+        let mut cli = Cli::command();
+        for sub in ["train", "lifelong", "compare"] {
+            let help = cli
+                .find_subcommand_mut(sub)
+                .unwrap()
+                .render_long_help()
+                .to_string();
+            for name in trn_plant::SimConfig::NAMES {
+                assert!(
+                    help.contains(&format!("`{name}`")),
+                    "{name} missing from trn {sub} --help"
+                );
+            }
         }
     }
 

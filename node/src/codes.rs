@@ -5,8 +5,8 @@ use trn_controller::Error as CtrlError;
 
 /// A trial ended without a result; detail = trial. Always preceded by the reason.
 pub const TRIAL_ABORTED: u16 = 0x0100;
-/// An observation had an invalid point; detail = `point index << 8 | PointStatus as u8`.
-/// The trial is aborted.
+/// An observation had an invalid point (an estimated one in a trial that learns);
+/// detail = `point index << 8 | PointStatus as u8`. The trial is aborted.
 pub const INVALID_OBSERVATION: u16 = 0x0101;
 /// No observation arrived after the capture request and its retries; detail = the
 /// request's sequence number. The trial is aborted.

@@ -42,7 +42,7 @@ pub struct ControllerNode {
     pub(crate) cfg: NodeConfig,
     seq: u16,
     pub(crate) trial: Option<u32>,
-    /// Whether the trial in progress updates the tables.
+    /// Whether the trial in progress updates the tables (it may not use estimated points).
     pub(crate) trial_learns: bool,
     pending: Pending,
     supervised: Option<(u32, [f32; 5])>,
@@ -114,6 +114,7 @@ impl ControllerNode {
                 repeated_targets: 0,
                 ignored: 0,
                 frame_errors: 0,
+                estimated: 0,
             },
         }
     }
@@ -583,9 +584,10 @@ impl ControllerNode {
             self.stats.aborted += 1;
         }
         let learns = match task {
-            Task::Stage1 { learn, .. } | Task::Stage2 { learn, .. } | Task::Grasp { learn, .. } => {
-                learn
-            }
+            Task::Stage1 {
+                learn, supervised, ..
+            } => learn || supervised.is_some(),
+            Task::Stage2 { learn, .. } | Task::Grasp { learn, .. } => learn,
         };
         if learns {
             // the tables change: a save in progress starts again after the trial
@@ -617,13 +619,25 @@ impl ControllerNode {
             CaptureKind::GripperLights => 4,
             CaptureKind::GripperCentre => 2,
         };
+        // an estimate (a light hidden from one camera, placed by the camera processor from
+        // what it sees and the markers' last position) is good enough to move on with, not
+        // to learn from: the tables would take its error for the arm's
+        let usable = |s: PointStatus| {
+            s == PointStatus::Valid || (s == PointStatus::Estimated && !self.trial_learns)
+        };
         for (i, p) in o.points[..used].iter().enumerate() {
-            if p.status != PointStatus::Valid {
+            if !usable(p.status) {
                 let detail = ((i as u32) << 8) | p.status as u32;
                 error(out, codes::INVALID_OBSERVATION, detail);
                 self.abort(ctrl, out);
                 return;
             }
+        }
+        if o.points[..used]
+            .iter()
+            .any(|p| p.status == PointStatus::Estimated)
+        {
+            self.stats.estimated = self.stats.estimated.saturating_add(1);
         }
         self.pending = Pending::None;
         match ctrl.observe(crate::exchange::reading(o)) {

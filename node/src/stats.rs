@@ -19,4 +19,6 @@ pub struct NodeStats {
     pub ignored: u32,
     /// Frames dropped by the reassembler (malformed, lost or corrupt segments).
     pub frame_errors: u32,
+    /// Observations with an estimated point that were used (trials that do not learn).
+    pub estimated: u32,
 }

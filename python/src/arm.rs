@@ -16,13 +16,15 @@ use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use trn_lab::targets::{HeldOut, Target};
 use trn_plant::kinematics::{forward, lights};
+use trn_plant::markers::Tracker;
 use trn_plant::vec3::V3;
 use trn_plant::{Plant, PointStatus, Readings, SimConfig};
 
 use crate::render;
 
 /// A light's reading for Python: pixels (0, 0 when invalid) and the protocol's status code
-/// (0 valid, 1 out of view, 2 occluded, 3 not detected).
+/// (0 valid, 1 out of view, 2 occluded, 3 not detected, 4 estimated: a hidden light the
+/// camera processor placed from what it saw and where the markers were, not a reading).
 fn reading<const K: usize>(r: &Readings<K>) -> (Vec<f64>, Vec<u8>) {
     let mut xy = Vec::with_capacity(2 * K);
     let mut status = Vec::with_capacity(K);
@@ -32,8 +34,13 @@ fn reading<const K: usize>(r: &Readings<K>) -> (Vec<f64>, Vec<u8>) {
             PointStatus::Valid | PointStatus::NotDetected => 3,
             PointStatus::OutOfView => 1,
             PointStatus::Occluded => 2,
+            PointStatus::Estimated => 4,
         };
-        let (x, y) = if code == 0 { (p.x, p.y) } else { (0.0, 0.0) };
+        let (x, y) = if matches!(code, 0 | 4) {
+            (p.x, p.y)
+        } else {
+            (0.0, 0.0)
+        };
         xy.extend([x, y]);
         status.push(code);
     }
@@ -48,7 +55,7 @@ pub struct Arm {
     plant: Plant,
     target: Target,
     /// The camera processor's memory of where the markers were.
-    track: Option<[V3; 3]>,
+    track: Tracker,
     commanded: [f32; 5],
     lights: Vec<f64>,
     status: Vec<u8>,
@@ -116,7 +123,7 @@ impl Arm {
             stage,
             plant,
             target: Target::NONE,
-            track: None,
+            track: Tracker::default(),
             commanded: [0.0; 5],
             lights: vec![0.0; 2 * k],
             status: vec![3; k],
@@ -142,7 +149,7 @@ impl Arm {
         }
         self.plant.command(&start);
         self.commanded = start;
-        self.track = None;
+        self.track = Tracker::default();
         self.moves = 0;
         self.capture();
         Ok(())

@@ -179,9 +179,16 @@ where
         self.port
     }
 
-    /// Frames and sends a message (the runner's, or a node's answer).
+    /// Frames and sends a message of the runner's. The plant's nodes hear it as nodes on a
+    /// bus hear every frame (the camera processor starts a trial's track at its target); a
+    /// port does not give a sender its own frames back, so they are handed it here.
     pub fn send(&mut self, node: NodeId, msg: Message) -> Result<()> {
-        self.send_env(&Envelope::new(node, msg))
+        let env = Envelope::new(node, msg);
+        let mut out = Outbox::new();
+        self.camera
+            .on_message(&mut self.plant.borrow_mut(), &env, &mut out);
+        self.send_all(&out)?;
+        self.send_env(&env)
     }
 
     fn send_env(&mut self, env: &Envelope) -> Result<()> {

@@ -51,7 +51,9 @@ impl StageScore {
     }
 }
 
-/// The measured and noise-free error of every capture `pick` accepts, in order.
+/// The measured and noise-free error of every capture `pick` accepts, in order. A capture
+/// with an estimated point counts as the controller saw it (the estimate is its measured
+/// reading; the noise-free error is the arm's): it is a move the controller made.
 fn errors(rec: &TrialRecord, pick: impl Fn(&Sight) -> Option<(f32, f32)>) -> (Vec<f32>, Vec<f32>) {
     rec.captures.iter().filter_map(|c| pick(&c.sight)).unzip()
 }
@@ -75,7 +77,7 @@ pub fn stage1(rec: &TrialRecord) -> Option<StageScore> {
     let t = &rec.target;
     let mut s = score(rec, 1, t.noise_v);
     (s.errors_px, s.errors_true_px) = errors(rec, |sight| match sight {
-        Sight::Lights { noisy, truth } => match (noisy.to_vector(), truth.to_vector()) {
+        Sight::Lights { noisy, truth } => match (noisy.reported_vector(), truth.to_vector()) {
             (Some(v), Some(vt)) => Some((dist(&v, &t.v), dist(&vt, &t.v_true))),
             _ => None,
         },
@@ -101,7 +103,7 @@ pub fn stage2(rec: &TrialRecord) -> Option<StageScore> {
     let t = &rec.target;
     let mut s = score(rec, 2, t.noise_c);
     (s.errors_px, s.errors_true_px) = errors(rec, |sight| match sight {
-        Sight::Centre { noisy, truth } => match (noisy.to_vector(), truth.to_vector()) {
+        Sight::Centre { noisy, truth } => match (noisy.reported_vector(), truth.to_vector()) {
             (Some(x), Some(xt)) => Some((dist(&x, &t.c), dist(&xt, &t.c_true))),
             _ => None,
         },

@@ -158,8 +158,8 @@ fn read_target(plant: &mut Plant, p: [f32; 5], grasp: bool) -> Option<Target> {
         // (first readings of lights and centre, then the second ones: the order of the
         // camera noise draws of the plant before the check, so the ideal plant's runs stay
         // bit for bit what they were)
-        let lights_fn = |p: &mut Plant| p.gripper_lights_filled(&mut None).0;
-        let centre_fn = |p: &mut Plant| p.gripper_centre_filled(&mut None).0;
+        let lights_fn = |p: &mut Plant| p.gripper_lights_filled(&mut Default::default()).0;
+        let centre_fn = |p: &mut Plant| p.gripper_centre_filled(&mut Default::default()).0;
         let lights = lights_fn(plant);
         let lights_true = plant.observe_gripper_lights_true();
         let centre = centre_fn(plant);

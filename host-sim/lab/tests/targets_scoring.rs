@@ -102,6 +102,7 @@ fn capture(noisy: [f32; 8], truth: [f32; 8]) -> Capture {
         },
         pose: Pose::NONE,
         time_s: 1.2,
+        fill: Default::default(),
     }
 }
 

@@ -15,6 +15,7 @@ mod error;
 mod grasp;
 pub mod joint;
 pub mod kinematics;
+pub mod markers;
 pub mod nodes;
 pub mod random;
 mod readings;
@@ -33,7 +34,7 @@ pub use grasp::{Cylinder, GraspScore};
 use joint::Joint;
 pub use kinematics::{Chain, Pose};
 pub use random::uniform;
-pub use readings::{PixelReading, PointStatus, Readings};
+pub use readings::{Occluder, PixelReading, PointStatus, Readings};
 use vec3::{cross, V3};
 
 /// Servo drive feedback.

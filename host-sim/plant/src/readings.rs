@@ -17,6 +17,36 @@ pub enum PointStatus {
     /// Not detected: a dropout, or two readings of one light that disagree
     /// ([`super::stereo`]).
     NotDetected,
+    /// Hidden from this camera and estimated by the camera processor from the readings it
+    /// has and where the gripper's markers were one move ago ([`super::markers`]): a best
+    /// guess, not a reading (its error is not bounded by the centroid noise).
+    Estimated,
+}
+
+/// What hides a light from a camera ([`Plant::hidden_by`]): the simulator's ground truth,
+/// for diagnosing failures; a camera processor only sees that the light is missing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Occluder {
+    /// The upper arm.
+    UpperArm,
+    /// The forearm.
+    Forearm,
+    /// The hand (realistic plant).
+    Hand,
+    /// The cylinder standing in front of the arm (realistic plant).
+    Cylinder,
+}
+
+impl Occluder {
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Occluder::UpperArm => "upper arm",
+            Occluder::Forearm => "forearm",
+            Occluder::Hand => "hand",
+            Occluder::Cylinder => "cylinder",
+        }
+    }
 }
 
 /// One light in one camera (pixels); `x`, `y` are NaN unless valid.
@@ -38,9 +68,21 @@ pub struct Readings<const K: usize> {
 }
 
 impl<const K: usize> Readings<K> {
-    /// The readings as the controller's input vector, or `None` if any is invalid.
+    /// The readings as the controller's input vector, or `None` if any is not valid (an
+    /// estimate included).
     pub fn to_vector<const D: usize>(&self) -> Option<[f32; D]> {
-        if D != 2 * K || self.points.iter().any(|p| p.status != PointStatus::Valid) {
+        if self.points.iter().any(|p| p.status != PointStatus::Valid) {
+            return None;
+        }
+        self.reported_vector()
+    }
+
+    /// The readings as the controller gets them, estimates included (what it measured its
+    /// error on), or `None` if any is missing.
+    pub fn reported_vector<const D: usize>(&self) -> Option<[f32; D]> {
+        let reported =
+            |p: &PixelReading| matches!(p.status, PointStatus::Valid | PointStatus::Estimated);
+        if D != 2 * K || !self.points.iter().all(reported) {
             return None;
         }
         let mut v = [0.0; D];
@@ -53,6 +95,42 @@ impl<const K: usize> Readings<K> {
 }
 
 impl Plant {
+    /// What hides the point `p` (mm) from camera `cam` with the arm in `chain` and this
+    /// plant's cylinder, if anything: the upper arm or the forearm (capsules of
+    /// `link_radius_mm`), and on the realistic plant (`occlude_hand_and_cylinder`) the hand
+    /// up to just short of the gripper centre (the centre light sits at its end) and the
+    /// cylinder, unless `p` is inside it (its own centre, a gripper light on the fingers that
+    /// hold it). The first in that order.
+    pub fn hidden_by(&self, cam: usize, p: &V3, chain: &Chain) -> Option<Occluder> {
+        let eye = self.cameras.get(cam)?.position();
+        let r = self.cfg.link_radius_mm;
+        let along = unit(&sub(p, &eye));
+        let near = sub(p, &scale(&along, 2.0 * r)); // stop short of the light itself
+        let links = [
+            (Occluder::UpperArm, &chain.shoulder, &chain.elbow),
+            (Occluder::Forearm, &chain.elbow, &chain.wrist),
+        ];
+        for (who, a, b) in links {
+            if segments_distance(&eye, &near, a, b) < r {
+                return Some(who);
+            }
+        }
+        if !self.cfg.realism.occlude_hand_and_cylinder {
+            return None;
+        }
+        let c = &chain.pose;
+        let hand_end = sub(&c.centre_mm, &scale(&c.approach, r));
+        if segments_distance(&eye, &near, &chain.wrist, &hand_end) < 0.8 * r {
+            return Some(Occluder::Hand);
+        }
+        let cyl = self.cylinder.as_ref()?;
+        let half = scale(&cyl.axis, 0.5 * cyl.length);
+        let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
+        (segments_distance(p, p, &a, &b) > cyl.radius + 1.0
+            && segments_distance(&eye, &near, &a, &b) < cyl.radius)
+            .then_some(Occluder::Cylinder)
+    }
+
     fn read(&mut self, cam: usize, p: &V3, noisy: bool, chain: &Chain) -> PixelReading {
         let invalid = |status| PixelReading {
             x: f64::NAN,
@@ -71,38 +149,8 @@ impl Plant {
                 status: PointStatus::Valid,
             };
         }
-        // hidden behind the upper arm or the forearm (capsules)
-        let eye = camera.position();
-        let r = self.cfg.link_radius_mm;
-        let along = unit(&sub(p, &eye));
-        let near = sub(p, &scale(&along, 2.0 * r)); // stop short of the light itself
-        for (a, b) in [
-            (&chain.shoulder, &chain.elbow),
-            (&chain.elbow, &chain.wrist),
-        ] {
-            if segments_distance(&eye, &near, a, b) < r {
-                return invalid(PointStatus::Occluded);
-            }
-        }
-        if self.cfg.realism.occlude_hand_and_cylinder {
-            // the hand up to just short of the gripper centre (the centre light sits at its
-            // end), and the cylinder, when one stands in front of the arm
-            let c = &chain.pose;
-            let hand_end = sub(&c.centre_mm, &scale(&c.approach, r));
-            if segments_distance(&eye, &near, &chain.wrist, &hand_end) < 0.8 * r {
-                return invalid(PointStatus::Occluded);
-            }
-            if let Some(cyl) = &self.cylinder {
-                let half = scale(&cyl.axis, 0.5 * cyl.length);
-                let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
-                // a point inside it (its own centre, a gripper light on the fingers that hold
-                // it) is not hidden by it
-                if segments_distance(p, p, &a, &b) > cyl.radius + 1.0
-                    && segments_distance(&eye, &near, &a, &b) < cyl.radius
-                {
-                    return invalid(PointStatus::Occluded);
-                }
-            }
+        if self.hidden_by(cam, p, chain).is_some() {
+            return invalid(PointStatus::Occluded);
         }
         let realism = &self.cfg.realism;
         if noisy

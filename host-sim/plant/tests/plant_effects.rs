@@ -129,17 +129,21 @@ fn the_stereo_check_rejects_outliers_and_recovers_dropouts() {
 
 /// The camera processor fills in a gripper light hidden from a camera (the hand, the
 /// cylinder in front of the pre-grasp pose) from the rigid marker body fitted to the lights
-/// it sees: on the realistic plant at pre-grasp poses, most captures lose a light without
-/// it and almost none with it, and every filled-in reading lies within the stereo check's
-/// tolerance (1 px + 6 sigma = 2.8 px) of where the light projects.
+/// it sees, as valid only where those readings determine it: on the realistic plant at
+/// pre-grasp poses, with nothing tracked (a trial's first capture), every valid reading lies
+/// within the stereo check's tolerance (1 px + 6 sigma = 2.8 px) of where the light
+/// projects, filled in or not. Where two mirror bodies explain the readings (the hidden
+/// light's two candidates tens of pixels apart), it is estimated, not filled in: the
+/// lowest-cost body of the two was the wrong one on these poses, 57 px off, and was
+/// reported valid before.
 #[test]
-fn hidden_gripper_lights_are_filled_in_from_the_marker_layout() {
+fn hidden_gripper_lights_are_filled_in_only_where_the_markers_seen_determine_them() {
     use rand_core::SeedableRng;
     let cfg = SimConfig::realistic();
     let mut plant = Plant::new(&cfg, 3).unwrap();
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(4);
-    let (mut poses, mut hidden, mut usable, mut filled, mut worst) = (0, 0, 0, 0, 0.0f64);
-    let mut track = None;
+    let (mut poses, mut hidden, mut usable, mut filled, mut estimated) = (0, 0, 0, 0, 0);
+    let (mut worst, mut worst_estimate) = (0.0f64, 0.0f64);
     while poses < 150 {
         let p = plant.random_pressures(&mut rng);
         plant.command(&p);
@@ -156,23 +160,32 @@ fn hidden_gripper_lights_are_filled_in_from_the_marker_layout() {
             .points
             .iter()
             .any(|p| p.status == PointStatus::Occluded) as usize;
-        let (r, n) = plant.gripper_lights_filled(&mut track);
-        filled += n;
-        usable += r.points.iter().all(|p| p.status == PointStatus::Valid) as usize;
+        // a trial's first capture: nothing tracked
+        let (r, fill) = plant.gripper_lights_filled(&mut Default::default());
+        filled += fill.filled;
+        estimated += fill.estimated;
+        usable += r.reported_vector::<8>().is_some() as usize;
         for (a, t) in r.points.iter().zip(truth.points.iter()) {
-            if a.status == PointStatus::Valid {
-                worst = worst.max((a.x - t.x).hypot(a.y - t.y));
+            let off = (a.x - t.x).hypot(a.y - t.y);
+            match a.status {
+                PointStatus::Valid => worst = worst.max(off),
+                PointStatus::Estimated => worst_estimate = worst_estimate.max(off),
+                _ => {}
             }
         }
         plant.set_cylinder(None);
     }
-    println!("{poses} pre-grasp poses: a light hidden in {hidden}, {filled} readings filled in, {usable} usable, worst error {worst:.2} px");
+    println!("{poses} pre-grasp poses: a light hidden in {hidden}, {filled} readings filled in, {estimated} estimated (worst {worst_estimate:.1} px), {usable} usable, worst valid error {worst:.2} px");
     assert!(
         hidden >= poses / 5,
         "too few hidden lights to test: {hidden}"
     );
     assert!(usable >= poses * 95 / 100, "{usable} of {poses}");
-    assert!(filled >= hidden / 2, "{filled}");
+    assert!(filled >= hidden / 3, "{filled}");
+    assert!(
+        estimated > 0,
+        "no mirror bodies among the poses: the test lost its case"
+    );
     let tolerance = trn_plant::stereo::tolerance_px(cfg.pixel_noise_px);
     assert!(worst < tolerance, "{worst} px against {tolerance}");
 }
@@ -299,4 +312,29 @@ fn the_named_configurations_load_and_differ() {
     assert_ne!(realistic, SimConfig::ideal());
     assert!(Plant::new(&realistic, 1).is_ok());
     assert!(load_sim_config(Some(std::path::Path::new("no-such-plant"))).is_err());
+    // every name loads, validates and is its own plant
+    let all: Vec<SimConfig> = SimConfig::NAMES
+        .iter()
+        .map(|n| load_sim_config(Some(std::path::Path::new(n))).unwrap())
+        .collect();
+    for (i, c) in all.iter().enumerate() {
+        c.validate().unwrap();
+        assert!(
+            all[..i].iter().all(|o| o != c),
+            "{} repeats",
+            SimConfig::NAMES[i]
+        );
+    }
+    // the realistic plant growing old: the realistic plant with exactly the drift and wear
+    // the aging configuration adds to the ideal one
+    let old = SimConfig::named("realistic-aging").unwrap();
+    assert_eq!(old.drift, SimConfig::aging().drift);
+    assert_eq!(
+        SimConfig {
+            drift: realistic.drift.clone(),
+            ..old.clone()
+        },
+        realistic
+    );
+    assert!(old.drift.temperature && old.drift.wear);
 }

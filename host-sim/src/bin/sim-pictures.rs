@@ -17,7 +17,7 @@ struct Args {
     /// Output directory.
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// Simulator configuration: a built-in name (`ideal`, `realistic`, `aging`) or a TOML
+    /// Simulator configuration: a built-in name (`ideal`, `realistic`, `aging`, `realistic-aging`) or a TOML
     /// file (default: the ideal plant).
     #[arg(long)]
     config: Option<String>,

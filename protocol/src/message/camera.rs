@@ -23,6 +23,10 @@ pub enum PointStatus {
     Occluded,
     /// Not detected for another reason (or an unused slot).
     NotDetected,
+    /// Hidden from this camera; `x`, `y` are the camera processor's estimate of where the
+    /// light projects, from what it sees and where the light was one move ago (SPEC.md
+    /// 3): a best guess whose error is not bounded by the centroid noise.
+    Estimated,
 }
 
 /// One light in one camera. Pixels, origin top-left.

@@ -294,4 +294,39 @@ mod tests {
         assert!(!c.all_valid());
         assert_eq!(c.v(), None);
     }
+
+    /// A point's status is one byte, its index (SPEC.md 3): `Estimated` (4) is the last; a
+    /// receiver refuses 5.
+    #[test]
+    fn point_status_bytes_are_the_spec_table() {
+        let statuses = [
+            PointStatus::Valid,
+            PointStatus::OutOfView,
+            PointStatus::Occluded,
+            PointStatus::NotDetected,
+            PointStatus::Estimated,
+        ];
+        let pt = |status| PixelPoint {
+            x: 1.0,
+            y: 2.0,
+            status,
+        };
+        for (byte, status) in statuses.into_iter().enumerate() {
+            assert_eq!(status as u8, byte as u8);
+            let msg: Message = Observation::lights(3, [pt(status); 4]).into();
+            let mut buf = [0u8; 64];
+            let n = msg.encode_payload(&mut buf).unwrap();
+            // seq (2), what (1), then x, y, status per point
+            assert_eq!(buf[3 + 8], byte as u8);
+            assert_eq!(Message::decode_payload(msg.kind(), &buf[..n]), Ok(msg));
+        }
+        let msg: Message = Observation::lights(3, [pt(PointStatus::Valid); 4]).into();
+        let mut buf = [0u8; 64];
+        let n = msg.encode_payload(&mut buf).unwrap();
+        buf[3 + 8] = 5;
+        assert_eq!(
+            Message::decode_payload(msg.kind(), &buf[..n]),
+            Err(Error::Decode)
+        );
+    }
 }

@@ -16,7 +16,8 @@ pub fn point() -> impl Strategy<Value = PixelPoint> {
             Just(PointStatus::Valid),
             Just(PointStatus::OutOfView),
             Just(PointStatus::Occluded),
-            Just(PointStatus::NotDetected)
+            Just(PointStatus::NotDetected),
+            Just(PointStatus::Estimated)
         ],
     )
         .prop_map(|(x, y, status)| PixelPoint { x, y, status })

@@ -12,7 +12,8 @@ stereo consistency, a hidden light is filled in from the marker fit): one move.
   target's); the light is the gripper centre in both cameras (rows g0, g1).
 
 The observation is a dict: ``lights`` (pixels, one row a light in one camera; 0, 0 when not
-read), ``status`` (0 valid, 1 out of view, 2 occluded, 3 not detected), ``target`` (the
+read), ``status`` (0 valid, 1 out of view, 2 occluded, 3 not detected, 4 estimated: placed by
+the camera processor, not read), ``target`` (the
 target's lights as measured, the same rows). The reward is minus the measured error (pixels:
 the distance of ``lights`` to ``target``), or minus the image diagonal when a light is not
 read. An episode terminates within ``tolerance_px`` and is truncated after ``max_moves``.
@@ -26,7 +27,7 @@ from gymnasium import spaces
 
 from ._native import Arm
 
-STATUS = ("valid", "out of view", "occluded", "not detected")
+STATUS = ("valid", "out of view", "occluded", "not detected", "estimated")
 
 
 class SoftArmEnv(gym.Env):

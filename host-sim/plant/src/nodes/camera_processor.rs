@@ -38,14 +38,20 @@ pub struct Capture {
     pub pose: Pose,
     /// The plant's simulated time when the reading was taken, after the settle (s).
     pub time_s: f64,
+    /// What the camera processor saw before filling in hidden lights, and why it could not
+    /// fill one in (for diagnosis: the controller gets the readings only).
+    pub fill: crate::markers::Fill,
 }
 
 /// The camera processor (both cameras).
 #[derive(Debug, Clone, Default)]
 pub struct CameraProcessor {
     captures: u64,
-    /// Where the gripper's markers were last seen (the start of a marker fit).
-    track: Option<[crate::vec3::V3; 3]>,
+    /// The trial whose target it heard last.
+    trial: Option<u32>,
+    /// Where the gripper's markers were at the trial's last capture, and where its targets
+    /// show them (a marker fit's start, and its prior where the readings say nothing).
+    tracker: crate::markers::Tracker,
     /// The last observation sent, to send again when its request is repeated.
     last: Option<proto::Observation>,
     /// A point to report invalid in the next new capture (a fault injected by a test).
@@ -66,8 +72,8 @@ pub enum Served {
     Stale,
 }
 
-/// The protocol's points for plant readings: a valid reading as is; an invalid one as
-/// `(0, 0)` with its status (out of view, occluded, not detected).
+/// The protocol's points for plant readings: a valid or estimated reading as is; an invalid
+/// one as `(0, 0)` with its status (out of view, occluded, not detected).
 pub fn points_of<const K: usize>(r: &Readings<K>) -> [PixelPoint; 4] {
     let mut points = [PixelPoint::UNUSED; 4];
     for (p, r) in points.iter_mut().zip(r.points.iter()) {
@@ -76,14 +82,23 @@ pub fn points_of<const K: usize>(r: &Readings<K>) -> [PixelPoint; 4] {
             crate::PointStatus::OutOfView => proto::PointStatus::OutOfView,
             crate::PointStatus::Occluded => proto::PointStatus::Occluded,
             crate::PointStatus::NotDetected => proto::PointStatus::NotDetected,
+            crate::PointStatus::Estimated => proto::PointStatus::Estimated,
         };
-        *p = if status == proto::PointStatus::Valid && r.x.is_finite() && r.y.is_finite() {
-            PixelPoint::valid(r.x as f32, r.y as f32)
+        let located = matches!(
+            status,
+            proto::PointStatus::Valid | proto::PointStatus::Estimated
+        );
+        *p = if located && r.x.is_finite() && r.y.is_finite() {
+            PixelPoint {
+                x: r.x as f32,
+                y: r.y as f32,
+                status,
+            }
         } else {
             PixelPoint {
                 x: 0.0,
                 y: 0.0,
-                status: if status == proto::PointStatus::Valid {
+                status: if located {
                     proto::PointStatus::NotDetected
                 } else {
                     status
@@ -106,16 +121,42 @@ impl CameraProcessor {
         self.spoil = Some((index, status));
     }
 
+    /// A trial's start heard on the bus (the runner's `GraspRequest`, `Stage1Target`,
+    /// `Stage2Target`; a repeat of the trial in progress changes nothing). A new trial ends
+    /// the track of the last one, which says nothing of where the arm is now (the runner
+    /// moved it); until the trial's first capture the track is where its target shows the
+    /// markers (triangulated from the target message), the place the coarse move aims at.
+    fn hear_target(&mut self, plant: &Plant, msg: &Message) {
+        let (trial, lights, centre) = match msg {
+            Message::GraspRequest(g) => (g.trial, None, None),
+            Message::Stage1Target(t) => (t.trial, plant.target_track(&t.v), None),
+            Message::Stage2Target(t) => (t.trial, None, plant.centre_track(&t.c)),
+            _ => return,
+        };
+        if self.trial != Some(trial) {
+            self.trial = Some(trial);
+            self.tracker = crate::markers::Tracker::default();
+        }
+        // a grasp's start comes in three messages; a repeat changes nothing
+        let t = &mut self.tracker;
+        t.aim_lights = t.aim_lights.or(lights);
+        t.aim_centre = t.aim_centre.or(centre);
+    }
+
     /// Captures served so far (each is one move of the controller).
     pub fn captures(&self) -> u64 {
         self.captures
     }
 
     /// A received message: a `CaptureRequest` is served (the arm settles, both cameras
-    /// read) and answered; what was seen is returned for scoring. A repeat of the last
+    /// read) and answered; what was seen is returned for scoring. A trial's target (to the
+    /// controller) starts the markers' track. A repeat of the last
     /// request (its observation was lost) gets the same observation again without a new
     /// reading; an older request (late, reordered) is ignored.
     pub fn on_message(&mut self, plant: &mut Plant, env: &Envelope, out: &mut Outbox) -> Served {
+        if env.node == NodeId::Controller {
+            self.hear_target(plant, &env.msg);
+        }
         let (NodeId::CameraProcessor, Message::CaptureRequest(req)) = (env.node, env.msg) else {
             return Served::Nothing;
         };
@@ -133,16 +174,16 @@ impl CameraProcessor {
         self.captures += 1;
         // the stereo check, new frames for a light not detected or inconsistent, a hidden
         // light filled in from the marker layout (plant::stereo): not a move
-        let (sight, points) = match req.what {
+        let (sight, points, fill) = match req.what {
             CaptureKind::GripperLights => {
-                let (noisy, _) = plant.gripper_lights_filled(&mut self.track);
+                let (noisy, fill) = plant.gripper_lights_filled(&mut self.tracker);
                 let truth = plant.observe_gripper_lights_true();
-                (Sight::Lights { noisy, truth }, points_of(&noisy))
+                (Sight::Lights { noisy, truth }, points_of(&noisy), fill)
             }
             CaptureKind::GripperCentre => {
-                let (noisy, _) = plant.gripper_centre_filled(&mut self.track);
+                let (noisy, fill) = plant.gripper_centre_filled(&mut self.tracker);
                 let truth = plant.observe_gripper_centre_true();
-                (Sight::Centre { noisy, truth }, points_of(&noisy))
+                (Sight::Centre { noisy, truth }, points_of(&noisy), fill)
             }
         };
         let mut obs = proto::Observation {
@@ -166,6 +207,7 @@ impl CameraProcessor {
             sight,
             pose: plant.gripper_pose(),
             time_s: plant.time_s(),
+            fill,
         }))
     }
 }
