@@ -149,8 +149,14 @@ impl ControllerNode {
     /// before: the `now_ms` of its next heartbeat or of the repeat (or give-up) of the
     /// request it waits on, whichever comes first (as quinn-proto's
     /// `Connection::poll_timeout`). `None` before the first turn has scheduled a heartbeat.
-    /// A loop may sleep until then, or until a frame arrives.
+    /// A loop may sleep until then, or until a frame arrives. While a save to the store
+    /// can make a step, the node is due at once (the time of its last heartbeat, already
+    /// past): a save is a job of small steps, one a turn.
     pub fn poll_timeout(&self) -> Option<u32> {
+        if self.save_can_step() {
+            let last_beat = self.heartbeat_due_ms?;
+            return Some(last_beat.wrapping_sub(self.cfg.heartbeat_period_ms));
+        }
         let request = self.pending.deadline(self.cfg.reply_timeout_ms);
         match (self.heartbeat_due_ms, request) {
             (Some(h), Some(r)) => Some(if r.wrapping_sub(h) < u32::MAX / 2 {

@@ -224,6 +224,14 @@ impl ControllerNode {
         }
     }
 
+    /// True when the save in progress (or a save asked for) can make a step at the next
+    /// poll: none while a trial learns or an image is staged.
+    pub(crate) fn save_can_step(&self) -> bool {
+        self.tables.save != Save::Idle
+            && !(self.trial_learns && self.trial.is_some())
+            && self.tables.write.staging().is_none()
+    }
+
     /// A save is due on entering `Mature` when the tables changed since the last one.
     pub(crate) fn entering_mode(&mut self, mode: Mode) {
         if mode == Mode::Mature && self.mode != Mode::Mature && self.tables.dirty {
@@ -243,11 +251,16 @@ impl ControllerNode {
         if let Some(event) = self.tables.announce.take() {
             self.push_status(ctrl, event, out);
         }
+        // a controller without TRN tables or without a store saves nothing: no save is due
         let Some((s1, s2)) = steps(ctrl) else {
+            self.tables.save = Save::Idle;
             return;
         };
         let Some(t) = ctrl.tables() else { return };
-        let Some(store) = t.store else { return };
+        let Some(store) = t.store else {
+            self.tables.save = Save::Idle;
+            return;
+        };
         let since = s1.wrapping_add(s2).wrapping_sub(self.tables.steps_at_save);
         if since >= self.cfg.save_every_steps && self.trial.is_none() {
             self.want_save();
