@@ -14,7 +14,11 @@
 //! - Studies of many runs: [`compare`], [`sweep`], [`lifelong`]; the [`conformance`] suite.
 //! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
 //!   and the simulator's state beside them ([`sim_state`]).
+//! - The controller's learned tables: [`board`] boots the host's controller with its store
+//!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
+//!   checkpoint in, and begins a session on a controller that may hold learned tables.
 
+pub mod board;
 pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;
@@ -39,6 +43,7 @@ pub mod sim_state;
 pub mod spec;
 pub mod summary;
 pub mod sweep;
+pub mod tables;
 pub mod targets;
 
 pub use error::{io, LabError, Result};
