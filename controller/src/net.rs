@@ -181,12 +181,20 @@ impl<const N: usize, const D: usize, const M: usize> Trn<N, D, M> {
             f(&mut x);
             *e = Table::put(x, scale);
         };
-        self.w.iter_mut().flatten().for_each(|e| through(e, s.w));
-        self.p.iter_mut().flatten().for_each(|e| through(e, s.p));
-        self.a
+        // one loop per table over its flat slice (not loops nested per neuron, which the
+        // optimiser unrolls around every call of `f`)
+        self.w
+            .as_flattened_mut()
             .iter_mut()
-            .flatten()
-            .flatten()
+            .for_each(|e| through(e, s.w));
+        self.p
+            .as_flattened_mut()
+            .iter_mut()
+            .for_each(|e| through(e, s.p));
+        self.a
+            .as_flattened_mut()
+            .as_flattened_mut()
+            .iter_mut()
             .for_each(|e| through(e, s.a));
     }
 }

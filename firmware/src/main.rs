@@ -13,6 +13,8 @@ mod count;
 #[cfg(feature = "pil")]
 mod pil;
 #[cfg(feature = "pil")]
+mod store;
+#[cfg(feature = "pil")]
 mod uart;
 
 use core::panic::PanicInfo;

@@ -2,34 +2,69 @@
 //! frames carried as SLCAN lines over UART0; the simulator bridges them onto its bus
 //! (host-sim `slcan:qemu`). The UART is an `embedded-can` port ([`SlcanPort`]) and the loop
 //! is [`ControllerNode::service`], the same seam and the same code path as the host's.
-//! Exits through semihosting after the runner's `ModeChange{Idle}`.
+//!
+//! The node boots as a board's does: its guard seeded (`store::entropy`), what the store of
+//! its tables holds announced (the f32 build: [`store`], in emulated flash, erased at boot;
+//! the compact build has no store). It runs across sessions, as a board does: after each session's
+//! `ModeChange{Idle}` it prints its stack's high-water mark over semihosting; the simulator
+//! ends QEMU when its run is over, and the firmware exits by itself when nothing came over
+//! the UART for a minute of its clock (a simulator that died).
 
-use cortex_m_semihosting::debug;
+use cortex_m_semihosting::{debug, hprintln};
 use trn_controller::Controller;
 use trn_node::{ControllerNode, NodeConfig};
 use trn_protocol::slcan::SlcanPort;
-use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
+use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler, DEFAULT_STALE_MS};
 
 use crate::count::Clock;
+use crate::store;
 use crate::uart::Uart;
+
+/// Without a frame for this long (ms of the firmware's clock) the firmware exits: about ten
+/// minutes of wall time under QEMU's instruction counting, far beyond any pause of a run.
+const ORPHANED_MS: u32 = 60_000;
+
+/// The port, remembering whether a frame came in.
+struct Port {
+    inner: SlcanPort<Uart>,
+    received: bool,
+}
+
+impl embedded_can::nb::Can for Port {
+    type Frame = CanFrame;
+    type Error = trn_protocol::Error;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+        self.inner.transmit(frame)
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+        let f = self.inner.receive()?;
+        self.received = true;
+        Ok(f)
+    }
+}
 
 /// The node's state, in static RAM rather than on the 8 KiB stack.
 struct State {
     node: ControllerNode,
     enc: Encoder,
     rx: Reassembler,
-    port: SlcanPort<Uart>,
+    port: Port,
 }
 
 static mut STATE: State = State {
     node: ControllerNode::new(NodeConfig::DEFAULT),
     enc: Encoder::new(BusMode::Classic),
     rx: Reassembler::new(DEFAULT_STALE_MS),
-    port: SlcanPort::new(Uart::UART0),
+    port: Port {
+        inner: SlcanPort::new(Uart::UART0),
+        received: false,
+    },
 };
 
-/// Runs the node until the runner ends the session.
-pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
+/// Runs the node until the simulator ends QEMU (or stops sending for [`ORPHANED_MS`]).
+pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
     // SAFETY: the only access to STATE, taken once; single-threaded firmware, no interrupts.
     #[allow(unsafe_code)]
     let state: &'static mut State = unsafe { &mut *core::ptr::addr_of_mut!(STATE) };
@@ -39,18 +74,38 @@ pub fn run(ctrl: &mut Controller, mut clock: Clock) -> ! {
         rx,
         port,
     } = state;
-    port.link_mut().enable();
+    node.seed_guard(store::entropy());
+    // the emulated flash is erased at every boot (QEMU keeps nothing between runs): there is
+    // nothing to restore, and the node announces so
+    #[cfg(not(feature = "compact"))]
+    let mut board = trn_controller::WithStore {
+        ctrl,
+        store: store::store(),
+    };
+    #[cfg(not(feature = "compact"))]
+    node.tables_restored(&mut board, None);
+    #[cfg(not(feature = "compact"))]
+    let ctrl: &mut dyn trn_controller::Control = &mut board;
+    #[cfg(feature = "compact")]
+    node.tables_restored(ctrl, None);
+    port.inner.link_mut().enable();
+    let mut idle = false;
+    let mut heard_ms = clock.now_ms();
     loop {
+        let now = clock.now_ms();
         // a transport error of the UART cannot happen (polled registers); a bad frame is
         // dropped and counted by the node, as on the host
-        let _ = node.service(ctrl, rx, enc, port, clock.now_ms());
-        if node.idle_requested() {
-            let stack = crate::count::stack_high_water_mark();
-            cortex_m_semihosting::hprintln!(
-                "trn-firmware pil: stack high-water mark: {} bytes",
-                stack
-            );
+        let _ = node.service(ctrl, rx, enc, port, now);
+        if core::mem::take(&mut port.received) {
+            heard_ms = now;
+        } else if now.wrapping_sub(heard_ms) > ORPHANED_MS {
+            hprintln!("trn-firmware pil: no frame for a minute of its clock: exiting");
             debug::exit(debug::EXIT_SUCCESS);
         }
+        if node.idle_requested() && !idle {
+            let stack = crate::count::stack_high_water_mark();
+            hprintln!("trn-firmware pil: stack high-water mark: {} bytes", stack);
+        }
+        idle = node.idle_requested();
     }
 }

@@ -51,6 +51,8 @@ impl Common {
             ..Plan::new(0, 0, 0)
         };
         spec.allow_config_change = self.allow_config_change;
+        spec.reset_tables = self.reset_tables;
+        spec.tables = self.tables.clone();
         spec.outputs = Outputs {
             report: self.report.clone(),
             plot: self.plot.clone(),
@@ -70,6 +72,7 @@ impl TrainArgs {
         spec.plan.resume = self.resume;
         spec.trials_left = self.resume && self.trials.is_none();
         spec.checkpoint_in = self.checkpoint_in.clone();
+        spec.keep_tables = self.keep_tables;
         spec.outputs.checkpoint = self.checkpoint_out.clone();
         spec.outputs.checkpoint_every = count(self.checkpoint_every);
         Ok(spec)
@@ -84,7 +87,8 @@ impl EvalArgs {
             Command::Grasp => spec.plan.eval_targets = 0,
             _ => spec.plan.grasps = 0,
         }
-        spec.checkpoint_in = Some(self.checkpoint_in.clone());
+        spec.checkpoint_in = self.checkpoint_in.clone();
+        spec.outputs.checkpoint = self.checkpoint_out.clone();
         Ok(spec)
     }
 }

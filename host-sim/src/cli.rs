@@ -254,7 +254,9 @@ pub struct Common {
     #[arg(long, default_value = "inproc")]
     pub bus: String,
     /// The controller runs elsewhere on the bus (a board on `socketcan:IFACE` or behind a
-    /// USB-CAN adapter at `slcan:/dev/DEVICE`): start none; it keeps its own tables.
+    /// USB-CAN adapter at `slcan:/dev/DEVICE`): start none. It keeps its own tables:
+    /// `trn eval`/`trn grasp` run them, `--checkpoint-out` reads them out,
+    /// `--checkpoint-in` writes a checkpoint in.
     #[arg(long)]
     pub external_controller: bool,
     /// Use CAN FD framing (one frame per message) instead of CAN 2.0 segmentation.
@@ -323,6 +325,19 @@ pub struct Common {
     /// Use a checkpoint learned under another preset, ablation or configuration.
     #[arg(long)]
     pub allow_config_change: bool,
+    /// Allow erasing or replacing the tables the controller has learned: `trn train` seeds
+    /// new ones, `--checkpoint-in` writes the checkpoint's in, the conformance suite
+    /// re-seeds them. trn says what it erases (the learning steps, the configuration)
+    /// before it does. Without it, a run that would lose learned tables stops before
+    /// anything changes.
+    #[arg(long)]
+    pub reset_tables: bool,
+    /// Keep the controller's tables in this file, as a board keeps them in its flash (for
+    /// the in-process controller, or the controller-node this run starts on
+    /// socketcan:IFACE): restored at the start, saved as the controller saves them. Runs
+    /// with the same file go on with the same tables.
+    #[arg(long)]
+    pub tables: Option<PathBuf>,
     /// Faults on the in-process bus, each independent per frame and receiver, seeded by the
     /// run's seed: `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, each once,
     /// P in [0, 1]).
@@ -340,9 +355,15 @@ pub struct TrainArgs {
     /// default 300, or with --continue what the continued run had left).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub trials: Option<u64>,
-    /// Continue from this checkpoint (life-long learning).
-    #[arg(long)]
+    /// Continue from this checkpoint (life-long learning): its tables are written into the
+    /// controller (over the bus; over learned tables only with --reset-tables).
+    #[arg(long, conflicts_with = "keep_tables")]
     pub checkpoint_in: Option<PathBuf>,
+    /// Train on the tables the controller holds (a board's, or those of --tables FILE)
+    /// instead of new ones; the schedule goes on from their learning steps. They must have
+    /// been learned under this run's configuration.
+    #[arg(long, conflicts_with = "reset_tables")]
+    pub keep_tables: bool,
     /// Save the trained networks here (written atomically), and the simulator's state at
     /// the end of training beside it (`CHECKPOINT.sim`, for `--continue`).
     #[arg(long)]
@@ -365,9 +386,14 @@ pub struct EvalArgs {
     /// Shared options.
     #[command(flatten)]
     pub common: Common,
-    /// The trained networks.
+    /// The trained networks, written into the controller before the run. Without it the
+    /// run uses the tables the controller holds (--external-controller, --tables FILE).
     #[arg(long)]
-    pub checkpoint_in: PathBuf,
+    pub checkpoint_in: Option<PathBuf>,
+    /// Read the controller's tables out at the end and write them here (with
+    /// --external-controller: a board's tables; --eval-targets 0 --grasps 0 only reads).
+    #[arg(long)]
+    pub checkpoint_out: Option<PathBuf>,
 }
 
 /// `trn compare`.

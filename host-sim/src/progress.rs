@@ -92,6 +92,10 @@ impl Observer for Progress {
         self.bar.set_message(text.to_string());
     }
 
+    fn notice(&mut self, text: &str) {
+        self.bar.suspend(|| eprintln!("trn: {text}"));
+    }
+
     fn finish(&mut self) {
         self.bar.finish_and_clear();
     }

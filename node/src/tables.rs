@@ -253,11 +253,16 @@ impl ControllerNode {
         if let Some(event) = self.tables.announce.take() {
             self.push_status(ctrl, event, out);
         }
+        // a controller without TRN tables or without a store saves nothing: no save is due
         let Some((s1, s2)) = steps(ctrl) else {
+            self.tables.save = Save::Idle;
             return;
         };
         let Some(t) = ctrl.tables() else { return };
-        let Some(store) = t.store else { return };
+        let Some(store) = t.store else {
+            self.tables.save = Save::Idle;
+            return;
+        };
         let since = s1.wrapping_add(s2).wrapping_sub(self.tables.steps_at_save);
         if since >= self.cfg.save_every_steps && self.trial.is_none() {
             self.want_save();

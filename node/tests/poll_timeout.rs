@@ -183,3 +183,73 @@ fn an_answered_request_moves_the_timeout_to_the_next_request() {
         "{repeat:?}"
     );
 }
+
+/// While a save can make a step the node is due at once (a time already past), so a loop
+/// that sleeps until `poll_timeout` runs the save's steps back to back instead of one per
+/// heartbeat; once it is stored, only the heartbeat is due again. A node without a store
+/// never stays due. Fails if a loop would wait a heartbeat period between save steps.
+#[test]
+fn a_save_in_progress_is_due_at_once() {
+    use trn_controller::WithStore;
+    use trn_protocol::{StoreCommand, StoreOp, TablesEvent};
+    let slot = trn_store::FlashStore::<trn_store::sim::SimFlash<32, 4096>>::slot_size_needed();
+    let flash = trn_store::sim::SimFlash::<32, 4096>::new(2 * slot as usize / 4096);
+    let mut b = WithStore {
+        ctrl: Box::new(Controller::new(Config::project_default())),
+        store: trn_store::FlashStore::new(flash, 0, slot).unwrap(),
+    };
+    b.ctrl.init_random(1);
+    let mut n = ControllerNode::new(NodeConfig::default());
+    let mut out = Outbox::new();
+    n.poll(&mut b, 0, &mut out);
+    let save = StoreCommand {
+        op: StoreOp::Save,
+        nonce: 0,
+    };
+    n.on_message(
+        &mut b,
+        &Envelope::new(NodeId::Controller, save.into()),
+        1,
+        &mut out,
+    );
+    let now = 1;
+    let mut steps = 0;
+    loop {
+        let due = n.poll_timeout().unwrap();
+        assert!(
+            due.wrapping_sub(now) > u32::MAX / 2 || due == now,
+            "due {due} at {now}"
+        );
+        out.clear();
+        n.poll(&mut b, now, &mut out);
+        steps += 1;
+        let saved = out
+            .iter()
+            .any(|e| matches!(e.msg, Message::TablesStatus(s) if s.event == TablesEvent::Saved));
+        if saved {
+            break;
+        }
+        assert!(steps < 1000, "the save never ended");
+    }
+    assert!(steps > 10, "{steps} steps: a save is many small steps");
+    assert_eq!(
+        n.poll_timeout(),
+        Some(100),
+        "only the heartbeat is due after the save"
+    );
+    // no store: entering Mature asks for a save that cannot run; it is not due for ever
+    let mut c = controller();
+    let mut n = ControllerNode::new(NodeConfig::default());
+    n.poll(&mut *c, 0, &mut out);
+    let mature = trn_protocol::ModeChange {
+        mode: trn_protocol::Mode::Mature,
+    };
+    n.on_message(
+        &mut *c,
+        &Envelope::new(NodeId::Controller, mature.into()),
+        1,
+        &mut out,
+    );
+    n.poll(&mut *c, 2, &mut out);
+    assert_eq!(n.poll_timeout(), Some(100), "the heartbeat only");
+}

@@ -56,10 +56,24 @@ def decode_log(log, dbc):
           f"({pressure} pressure commands in 0..4095), {skipped} segment frames skipped")
     return ok
 
+def tables(out):
+    """The tables' round trip over vcan0 (tests.sh checks the bytes; this reports them)."""
+    try:
+        t = json.load(open(f"{out}/tables.json"))
+    except (OSError, ValueError) as e:
+        print(f"FAIL tables over vcan: no result ({e})")
+        return False
+    ok = t["bytes"] > 200_000 and "--reset-tables" in t["refusal"]
+    print(f"{'ok  ' if ok else 'FAIL'} tables over vcan: {t['bytes']} bytes written into controller-node and "
+          f"read back bit-identical ({t['write_and_read_s']} s), restored after its restart and read again "
+          f"({t['restored_eval_and_read_s']} s); a training run refused: {t['refusal'][:90]}...")
+    return ok
+
 def main(out, dbc):
     ok = same_curves(f"{out}/inproc.json", f"{out}/vcan.json", "vcan vs in-process (CAN 2.0)")
     ok &= same_curves(f"{out}/inproc-fd.json", f"{out}/vcan-fd.json", "vcan vs in-process (CAN FD)")
     ok &= decode_log(f"{out}/vcan.log", dbc)
+    ok &= tables(out)
     sys.exit(0 if ok else 1)
 
 if __name__ == "__main__":

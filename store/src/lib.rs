@@ -15,7 +15,8 @@
 //! A save is a job of small steps (one erase, or a few KiB programmed) that a node runs
 //! between bus messages ([`trn_controller::persist::TableStore`]); an incoming image is
 //! staged in the same inactive slot and applied only once whole and verified.
-//! [`policy`] derives how often to save from the part's flash endurance.
+//! [`policy`] derives how often to save from the part's flash endurance; [`RamFlash`] is a
+//! NOR flash in memory (the firmware in QEMU, a host's in-process controller).
 //!
 //! [`NorFlash`]: embedded_storage::nor_flash::NorFlash
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -24,11 +25,13 @@
 
 mod flash_store;
 pub mod policy;
+pub mod ram;
 #[cfg(feature = "sim")]
 pub mod sim;
 pub mod slot;
 
 pub use flash_store::{FlashStore, LayoutError, RestoreError};
+pub use ram::{RamFlash, RamFlashError};
 pub use trn_controller::persist::{
     ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,
 };

@@ -24,7 +24,10 @@ pub const FORMAT: u16 = 1;
 /// Encoded length of a header.
 pub const HEADER_LEN: usize = 36;
 
-static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// CRC-32/ISO-HDLC, the checkpoint's own (one table of 1 KiB in a firmware, not two).
+fn crc(bytes: &[u8]) -> u32 {
+    trn_controller::checkpoint::crc32(bytes)
+}
 
 /// A slot's header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -78,7 +81,7 @@ impl SlotHeader {
         ] {
             b[at..at + 4].copy_from_slice(&v.to_le_bytes());
         }
-        let crc = CRC.checksum(&b[..32]);
+        let crc = crc(&b[..32]);
         b[32..36].copy_from_slice(&crc.to_le_bytes());
         b
     }
@@ -89,7 +92,7 @@ impl SlotHeader {
         if b.iter().all(|&x| x == 0xFF) {
             return Decoded::Erased;
         }
-        if b[0..4] != MAGIC || CRC.checksum(&b[..32]) != u32_at(b, 32) {
+        if b[0..4] != MAGIC || crc(&b[..32]) != u32_at(b, 32) {
             return Decoded::Invalid;
         }
         Decoded::Valid(SlotHeader {

@@ -64,6 +64,48 @@ pub fn load(
     Ok(())
 }
 
+/// The image of the checkpoint file `path` to write into a controller that runs `cfg`
+/// (preset and ablation `provenance`): read and verified; its tables must have been learned
+/// under them unless `allow_change`, and then the image is relabelled as learned under the
+/// run's configuration (restored into a controller of `cfg` and saved again), so that the
+/// controller takes it with the run's `SessionConfig`. Returns the image, its header, and
+/// the file's own bytes (to pair a simulator state with).
+pub fn image_for(
+    path: &Path,
+    cfg: &trn_controller::Config,
+    provenance: Provenance,
+    allow_change: bool,
+) -> Result<(Vec<u8>, checkpoint::Header, Vec<u8>)> {
+    let (bytes, header) = read(path)?;
+    if header.provenance == provenance && header.config_matches(cfg) {
+        return Ok((bytes.clone(), header, bytes));
+    }
+    let mut ctrl = Box::new(Controller::new(*cfg));
+    load(&mut ctrl, path, provenance, allow_change)?;
+    let mut buf = vec![0u8; checkpoint::MAX_SIZE];
+    let n = checkpoint::save(&ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
+    buf.truncate(n);
+    let relabelled = checkpoint::verify(&buf).map_err(checkpoint_err(path))?;
+    Ok((buf, relabelled, bytes))
+}
+
+/// Writes a checkpoint image (read out of a controller, verified) durably.
+pub fn save_image(image: &[u8], path: &Path) -> Result<()> {
+    checkpoint::verify(image).map_err(checkpoint_err(path))?;
+    crate::output::write_durably(path, image)
+}
+
+/// [`save_with_state`] for an image read out of a controller.
+pub fn save_image_with_state(
+    image: &[u8],
+    path: &Path,
+    mut state: crate::sim_state::SimState,
+) -> Result<()> {
+    save_image(image, path)?;
+    state.checkpoint_crc = crc_of(image);
+    crate::sim_state::save(&state, &crate::sim_state::path_beside(path))
+}
+
 /// Reads and verifies a checkpoint file (length, CRC, magic, version, shapes, values):
 /// its bytes and header.
 pub fn read(path: &Path) -> Result<(Vec<u8>, checkpoint::Header)> {

@@ -16,7 +16,11 @@
 //!   [`conformance`] suite.
 //! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
 //!   and the simulator's state beside them ([`sim_state`]).
+//! - The controller's learned tables: [`board`] boots the host's controller with its store
+//!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
+//!   checkpoint in, and begins a session on a controller that may hold learned tables.
 
+pub mod board;
 pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;
@@ -43,6 +47,7 @@ pub mod spec;
 pub mod study;
 pub mod summary;
 pub mod sweep;
+pub mod tables;
 pub mod targets;
 pub mod trial_csv;
 

@@ -14,6 +14,9 @@ pub trait Observer {
     fn trial(&mut self, _record: &TrialRecord) {}
     /// A line worth showing beside the progress (the recent training error).
     fn message(&mut self, _text: &str) {}
+    /// Something the user must see whatever the progress shows: what the run is about to
+    /// erase or replace on the controller, what it found there.
+    fn notice(&mut self, _text: &str) {}
     /// The run ended (well or not).
     fn finish(&mut self) {}
     /// True when the run should stop at the next trial boundary (an interrupt): it then

@@ -202,6 +202,9 @@ impl OutputPlan {
                 "the simulator state read with it",
             ));
         }
+        if let Some(t) = &spec.tables {
+            inputs.push((t.clone(), "the controller's tables file (--tables)"));
+        }
         let mut written: Vec<(PathBuf, &str)> = Vec::new();
         for &(path, kind) in &outputs {
             check_path(path, kind)?;

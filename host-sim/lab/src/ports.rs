@@ -25,6 +25,12 @@ impl ControllerPort for SimulatedBus<Controller> {
     }
 }
 
+impl ControllerPort for SimulatedBus<crate::board::Board> {
+    fn controller(&self) -> Option<&Controller> {
+        Some(&SimulatedBus::controller(self).ctrl)
+    }
+}
+
 impl ControllerPort for SimulatedBus<NominalIk> {}
 
 impl ControllerPort for SimulatedBus<Oracle> {}

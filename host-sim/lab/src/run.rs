@@ -6,13 +6,15 @@
 use std::time::Instant;
 
 use trn_controller::checkpoint::Provenance;
-use trn_controller::{Control, Controller, Law};
+use trn_controller::{Control, Law};
+use trn_node::ControllerNode;
 use trn_plant::Plant;
 use trn_protocol::bus::BusStats;
 use trn_protocol::BusMode;
 use trn_transport::inproc::SimulatedBus;
 use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, TransportError};
 
+use crate::board;
 use crate::checkpoint_file;
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
@@ -24,7 +26,8 @@ use crate::report::Report;
 use crate::rig::SharedPlant;
 use crate::session::{Setup, Start};
 use crate::sim_state;
-use crate::spec::RunSpec;
+use crate::spec::{Command, RunSpec};
+use crate::tables::opening::{Opening, Want};
 
 /// Runs a specification: training (if `plan.trials > 0`), the held-out evaluation and
 /// grasps, or the conformance suite; writes the report, the candump log and the checkpoint
@@ -35,16 +38,22 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     let started = Instant::now();
     let plant = Plant::new(&spec.plant, spec.seed)?;
     let mut plan = spec.plan;
+    let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
     // a checkpoint's schedule goes on from the trials it learned; `--continue` also restores
     // the simulation of the run that wrote it
     let mut resume = None;
-    let mut checkpoint = None;
+    let mut image = None;
     if let Some(p) = &spec.checkpoint_in {
-        let (bytes, header) = checkpoint_file::read(p)?;
+        let (bytes, header, file) = checkpoint_file::image_for(
+            p,
+            &spec.profile_config(),
+            provenance,
+            spec.allow_config_change,
+        )?;
         plan.first_trial = header.t1 as usize;
         let beside = sim_state::path_beside(p);
         if plan.resume {
-            let crc = checkpoint_file::crc_of(&bytes);
+            let crc = checkpoint_file::crc_of(&file);
             let state = sim_state::load(&beside, spec.seed, &spec.plant, crc)?;
             plan.first_trial = state.trials_done;
             if spec.trials_left {
@@ -69,21 +78,32 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
                 }
             }
         }
-        checkpoint = Some(p.as_path());
+        image = Some(bytes);
     }
     let cfg = spec.controller_config();
     // the run parameters go to the controller over the bus; a tuning configuration that no
     // profile describes is given to the in-process controller directly instead
-    let keep_tables = checkpoint.is_some() || (spec.bus.external_controller && plan.trials == 0);
     let described = spec.profile_config().fingerprint() == cfg.fingerprint();
-    let session = described.then(|| spec.session_config(keep_tables));
+    let want = match (image, spec.command) {
+        (Some(bytes), _) => Want::Image(bytes),
+        (None, Command::Eval | Command::Grasp) => Want::Held { or_new: false },
+        (None, _) if spec.keep_tables => Want::Held { or_new: true },
+        (None, _) => Want::New,
+    };
+    let opening = described.then(|| Opening {
+        want,
+        reset: spec.reset_tables,
+        session: spec.session_config(false),
+        fingerprint: cfg.fingerprint(),
+        image: spec.image(),
+    });
     let mut report = Report::of(spec);
     report.bus_stats.faults = spec.bus.faults.map(|f| format!("{f:?}"));
     report.trials_this_run = plan.trials;
     let start = Start {
         spec,
         plan,
-        session,
+        opening,
         cfg,
         resume: resume.as_ref(),
         outputs: &outputs,
@@ -93,32 +113,38 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     // every trial's CSV row (`--csv`) is kept beside the caller's observer
     let mut rows = crate::trial_csv::TrialRows::new(observer, spec.outputs.csv.is_some());
     let mut setup = Setup::new(start, &mut rows);
-    let trained: Option<Box<Controller>> = match profile.controller {
+    match profile.controller {
         ControllerSite::Inline if cfg.law == Law::Model => {
             // the model-based reference: the simulator's own model, in process only
             let reference = Box::new(NominalIk::new(&spec.plant, cfg)?);
-            inline(&mut setup, reference, plant, &mut report)?;
-            None
+            inline(&mut setup, reference, None, plant, &mut report)?;
         }
         ControllerSite::Inline if cfg.law == Law::Oracle => {
             // the physical limit: it reads the plant the rig moves
             let shared: SharedPlant = std::rc::Rc::new(std::cell::RefCell::new(plant));
             let oracle = Box::new(Oracle::new(shared.clone(), cfg));
-            inline_shared(&mut setup, oracle, shared, &mut report)?;
-            None
+            inline_shared(&mut setup, oracle, None, shared, &mut report)?;
         }
         ControllerSite::Inline => {
-            // zeroed, as a board boots: the session configuration seeds it (or a checkpoint
-            // is loaded into it and kept); a configuration no profile describes is seeded here
-            let mut ctrl = Box::new(Controller::new(cfg));
-            if session.is_none() {
-                ctrl.init_random(spec.seed);
+            // zeroed, as a board boots, with its store (in memory, or the tables file) and
+            // what that held restored: the session configuration seeds the tables, or keeps
+            // them; a configuration no profile describes is seeded here
+            let (mut b, restored) = board::boot(cfg, spec.tables.as_deref())?;
+            if let Some(problem) = restored.as_ref().err().and_then(board::restore_problem) {
+                setup.notice(&format!(
+                    "the tables file: {problem}; its tables are not used"
+                ));
             }
-            if let Some(p) = checkpoint {
-                let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
-                checkpoint_file::load(&mut ctrl, p, provenance, spec.allow_config_change)?;
+            if setup.opening().is_none() {
+                b.ctrl.init_random(spec.seed);
             }
-            Some(inline(&mut setup, ctrl, plant, &mut report)?)
+            let node = board::node(
+                &mut b,
+                restored.ok(),
+                board::guard_seed(spec.seed),
+                trn_node::NodeConfig::HOST,
+            );
+            inline(&mut setup, Box::new(b), Some(node), plant, &mut report)?;
         }
         ControllerSite::Qemu => {
             // processor-in-the-loop: the controller is the firmware in QEMU, configured and
@@ -132,26 +158,22 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
             let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
             outcome?;
             stopped?;
-            None
         }
-        ControllerSite::External => {
-            match &spec.bus.spec {
-                BusSpec::SlcanSerial(path) => {
-                    let port = slcan_serial::SerialSlcan::open(path, spec.bus.bitrate)
-                        .map_err(|m| TransportError::open(&bus_name, m))?;
-                    setup.drive_wall(port, plant, &mut report)?;
-                }
-                BusSpec::SocketCan(iface) => {
-                    setup.drive_wall(socketcan(iface, &bus_name)?, plant, &mut report)?;
-                }
-                _ => {
-                    return Err(LabError::Usage(format!(
-                        "{bus_name}: no external controller there"
-                    )))
-                }
+        ControllerSite::External => match &spec.bus.spec {
+            BusSpec::SlcanSerial(path) => {
+                let port = slcan_serial::SerialSlcan::open(path, spec.bus.bitrate)
+                    .map_err(|m| TransportError::open(&bus_name, m))?;
+                setup.drive_wall(port, plant, &mut report)?;
             }
-            None
-        }
+            BusSpec::SocketCan(iface) => {
+                setup.drive_wall(socketcan(iface, &bus_name)?, plant, &mut report)?;
+            }
+            _ => {
+                return Err(LabError::Usage(format!(
+                    "{bus_name}: no external controller there"
+                )))
+            }
+        },
         ControllerSite::Process => {
             let BusSpec::SocketCan(iface) = &spec.bus.spec else {
                 return Err(LabError::Usage(format!(
@@ -161,42 +183,16 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
             let port = socketcan(iface, &bus_name)?;
             let args = peer::NodeArgs {
                 iface,
-                seed: spec.seed,
-                preset: spec.profile.preset.name(),
-                ablation: spec.profile.ablation.name(),
-                controller: spec.profile.law.name(),
-                config: spec.plant_name.as_deref().map(std::path::Path::new),
-                fd: spec.bus.fd,
-                checkpoint_in: checkpoint,
-                checkpoint_out: outputs.checkpoint(),
+                tables: spec.tables.as_deref(),
             };
             let child = peer::spawn_controller_node(&args, &bus_name)?;
             let outcome = setup.drive_wall(port, plant, &mut report).map(drop);
             let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
             outcome?;
             stopped?;
-            None
-        }
-    };
-    let end_state = setup.take_end_state();
-    drop(setup);
-    if let Some(p) = outputs.checkpoint() {
-        let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
-        match (&trained, end_state) {
-            (Some(ctrl), Some(state)) => {
-                checkpoint_file::save_with_state(ctrl, provenance, p, *state)?
-            }
-            (Some(ctrl), None) => checkpoint_file::save(ctrl, provenance, p)?,
-            // over SocketCAN the node wrote the controller's half: the simulator's half
-            // goes beside it, paired with it by its CRC
-            (None, Some(mut state)) if p.exists() => {
-                let (bytes, _) = checkpoint_file::read(p)?;
-                state.checkpoint_crc = checkpoint_file::crc_of(&bytes);
-                sim_state::save(&state, &sim_state::path_beside(p))?;
-            }
-            (None, _) => {}
         }
     }
+    drop(setup);
     report.wall_s = started.elapsed().as_secs_f64();
     outputs.write_report(&report)?;
     if let (Some(p), Some(csv)) = (&spec.outputs.csv, rows.csv()) {
@@ -205,28 +201,30 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     Ok(report)
 }
 
-/// The session with the controller `ctrl` serviced inline on the simulated clock; the
-/// controller (with its tables) comes back.
+/// The session with the controller `ctrl` serviced inline on the simulated clock, by
+/// `node` (booted by the caller) or a fresh node.
 fn inline<C: Control + ?Sized>(
     setup: &mut Setup,
     ctrl: Box<C>,
+    node: Option<ControllerNode>,
     plant: Plant,
     report: &mut Report,
-) -> Result<Box<C>>
+) -> Result<()>
 where
     SimulatedBus<C>: ControllerPort,
 {
     let shared = std::rc::Rc::new(std::cell::RefCell::new(plant));
-    inline_shared(setup, ctrl, shared, report)
+    inline_shared(setup, ctrl, node, shared, report)
 }
 
 /// [`inline`] on a plant the controller may read too.
 fn inline_shared<C: Control + ?Sized>(
     setup: &mut Setup,
     ctrl: Box<C>,
+    node: Option<ControllerNode>,
     plant: SharedPlant,
     report: &mut Report,
-) -> Result<Box<C>>
+) -> Result<()>
 where
     SimulatedBus<C>: ControllerPort,
 {
@@ -236,11 +234,12 @@ where
     } else {
         BusMode::Classic
     };
-    let bus = SimulatedBus::new(mode, spec.seed, spec.bus.faults, ctrl);
+    let node = node.unwrap_or_else(|| ControllerNode::new(trn_node::NodeConfig::HOST));
+    let bus = SimulatedBus::with_node(mode, spec.seed, spec.bus.faults, ctrl, node);
     let clock = bus.clock();
     let bus = setup.drive(bus, std::rc::Rc::new(clock), plant, report)?;
     report.bus_stats.injected = Some(injected(&bus.bus_stats()));
-    let (ctrl, n) = bus.into_controller();
+    let n = bus.node_stats();
     report.bus_stats.controller = Some(counts([
         ("retries", n.retries),
         ("corrected_commands", n.corrected_commands),
@@ -249,7 +248,7 @@ where
         ("frame_errors", n.frame_errors),
         ("aborted", n.aborted),
     ]));
-    Ok(ctrl)
+    Ok(())
 }
 
 #[cfg(target_os = "linux")]

@@ -79,6 +79,40 @@ impl Timing {
     }
 }
 
+/// Why the controller did not acknowledge a mode or a session configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refused {
+    /// `CONFIG_REJECTED` with its detail (SPEC 3.2).
+    Config(u32),
+    /// `GUARD_REFUSED` of a re-seed with its detail (`op << 8 | reason`, SPEC 3.4).
+    Guard(u32),
+    /// No acknowledgement after this many tries.
+    Unanswered(u32),
+}
+
+impl Refused {
+    /// What happened to `what`, in words a user can act on.
+    pub fn describe(&self, what: &str) -> String {
+        match *self {
+            Refused::Config(d) => format!(
+                "refused {what}: {}",
+                match d {
+                    codes::CONFIG_NOT_IDLE => "not idle (a session or a trial is in progress)",
+                    codes::CONFIG_MISMATCH => {
+                        "its tables were learned under another configuration (keep them with that configuration, or pass --reset-tables to erase them)"
+                    }
+                    codes::CONFIG_UNSUPPORTED => {
+                        "it does not run this control law (choose another with --controller)"
+                    }
+                    _ => "invalid configuration",
+                }
+            ),
+            Refused::Guard(d) => format!("refused {what}: {}", crate::tables::guard_refusal(d)),
+            Refused::Unanswered(n) => format!("did not acknowledge {what} after {n} tries"),
+        }
+    }
+}
+
 /// Counters of the runner.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RunnerStats {
@@ -88,6 +122,10 @@ pub struct RunnerStats {
     pub mode_repeats: u32,
     /// Trials given up after every repeat.
     pub given_up: u32,
+    /// Requests about the tables (their status, a nonce, a chunk) sent again after no
+    /// answer.
+    #[serde(default)]
+    pub table_repeats: u32,
 }
 
 impl<P> Runner<P>
@@ -142,28 +180,33 @@ where
     /// Announces a mode (`Priming`, `Training`, `Mature`, `Idle`) and waits for the
     /// controller's acknowledgement (the echo to every node), repeating it when none comes.
     pub fn mode(&mut self, mode: Mode) -> Result<()> {
-        self.acknowledged(ModeChange { mode }.into(), &format!("mode {mode:?}"))
+        let msg: Message = ModeChange { mode }.into();
+        self.acknowledge(msg, msg)?
+            .map_err(|r| Error::Controller(r.describe(&format!("mode {mode:?}"))))
     }
 
     /// Sends the session's run parameters (seed, preset, ablation, image size, bus mode;
     /// SPEC.md 3.2) and waits for the controller's acknowledgement. A controller that refuses
-    /// them (`CONFIG_REJECTED`) ends the run with its reason.
+    /// them (`CONFIG_REJECTED`, `GUARD_REFUSED`) ends the run with its reason.
     pub fn configure(&mut self, session: SessionConfig) -> Result<()> {
-        self.acknowledged(session.into(), "the session configuration")
+        self.acknowledge(session.into(), session.into())?
+            .map_err(|r| Error::Controller(r.describe("the session configuration")))
     }
 
-    /// Sends `msg` to the controller until the controller echoes it to `Broadcast`.
-    fn acknowledged(&mut self, msg: Message, what: &str) -> Result<()> {
-        let refused = |detail: u32| {
-            Error::Controller(format!(
-                "refused {what}: {}",
-                match detail {
-                    codes::CONFIG_NOT_IDLE => "not idle",
-                    codes::CONFIG_MISMATCH => "its tables were learned under another configuration",
-                    _ => "invalid configuration",
-                }
-            ))
-        };
+    /// Sends `msg` to the controller until it echoes `echo` to `Broadcast` (a mode, a
+    /// session configuration; for a `ConfirmedSessionConfig` the configuration it confirms),
+    /// repeating it after each reply timeout. `Ok(Err(_))`: the controller refused it
+    /// (`CONFIG_REJECTED`, `GUARD_REFUSED`, both for a session configuration only) or never
+    /// answered; `Err`: the bus failed or went silent.
+    pub fn acknowledge(
+        &mut self,
+        msg: Message,
+        echo: Message,
+    ) -> Result<std::result::Result<(), Refused>> {
+        let config = matches!(
+            msg,
+            Message::SessionConfig(_) | Message::ConfirmedSessionConfig(_)
+        );
         for _ in 0..=self.timing.retries {
             self.rig.send(NodeId::Controller, msg)?;
             let since = self.rig.now();
@@ -171,22 +214,20 @@ where
                 let wait = self.timing.reply.saturating_sub(self.rig.now() - since);
                 match self.rig.next_event(wait, self.timing.silence)? {
                     None => break,
-                    Some(Event::Controller(m)) if m == msg => return Ok(()),
-                    Some(Event::Controller(Message::ErrorReport(e)))
-                        if e.code == codes::CONFIG_REJECTED
-                            && matches!(msg, Message::SessionConfig(_)) =>
-                    {
-                        return Err(refused(e.detail))
-                    }
+                    Some(Event::Controller(m)) if m == echo => return Ok(Ok(())),
+                    Some(Event::Controller(Message::ErrorReport(e))) if config => match e.code {
+                        codes::CONFIG_REJECTED => return Ok(Err(Refused::Config(e.detail))),
+                        codes::GUARD_REFUSED if e.detail >> 8 == 1 => {
+                            return Ok(Err(Refused::Guard(e.detail)))
+                        }
+                        _ => {}
+                    },
                     Some(_) => {}
                 }
             }
             self.stats.mode_repeats += 1;
         }
-        Err(Error::Controller(format!(
-            "did not acknowledge {what} after {} tries",
-            self.timing.retries + 1
-        )))
+        Ok(Err(Refused::Unanswered(self.timing.retries + 1)))
     }
 
     /// Tells the controller the session is over (`ModeChange{Idle}`). A node that ended its
@@ -344,6 +385,14 @@ where
                         since = self.rig.now();
                         continue;
                     }
+                    if e.code == codes::SESSION_REQUIRED && e.detail == trial {
+                        // not a lost frame: the controller holds learned tables and no
+                        // session is in force (it restarted, or another runner ended the
+                        // session); repeating the trial cannot help
+                        return Err(Error::Controller(format!(
+                            "refuses trial {trial} (SESSION_REQUIRED): it holds learned tables and no session is in force (did it restart, or did another runner end the session?)"
+                        )));
+                    }
                     // a refusal (a lost half of the trial's start) is no progress: the
                     // start is repeated at the timeout
                     continue;
@@ -366,6 +415,11 @@ where
     /// Counters of repeats and give-ups.
     pub fn stats(&self) -> RunnerStats {
         self.stats
+    }
+
+    /// The counters, for the tables' requests ([`crate::tables`]).
+    pub(crate) fn stats_mut(&mut self) -> &mut RunnerStats {
+        &mut self.stats
     }
 }
 

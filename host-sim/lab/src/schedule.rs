@@ -168,7 +168,8 @@ where
     }
 }
 
-/// Runs `plan` and ends the session. The held-out targets are drawn from the plant as it is
+/// Runs `plan`; the caller ends the session ([`Runner::finish`]: it may read the tables
+/// out first). The held-out targets are drawn from the plant as it is
 /// before `cx.resume` (a simulator checkpoint, [`SimState`]) replaces it: a continued run
 /// keeps the held-out sets of the run it continues. The log keeps the simulator's state at
 /// the end of training (or where an interrupt stopped it: a checkpoint of that state
@@ -204,7 +205,6 @@ where
         evaluate(&mut s, plan, &sets)?;
     }
     s.observer.finish();
-    s.runner.finish()?;
     Ok(s.log)
 }
 

@@ -10,7 +10,7 @@ use trn_controller::checkpoint::Provenance;
 use trn_controller::Config;
 use trn_plant::Plant;
 use trn_protocol::bus::{ReceiveTimeout, RecordingPort};
-use trn_protocol::{BusMode, CanFrame, SessionConfig};
+use trn_protocol::{BusMode, CanFrame};
 use trn_transport::{Clock, WallClock};
 
 use crate::checkpoint_file;
@@ -26,14 +26,17 @@ use crate::runner::{Runner, Timing};
 use crate::schedule::{self, Checkpoints, Context, Plan};
 use crate::sim_state::SimState;
 use crate::spec::{Command, RunSpec};
+use crate::tables::{self, opening, opening::Opening};
 
 /// What a session starts from.
 pub(crate) struct Start<'a> {
     pub spec: &'a RunSpec,
     /// The trials (the checkpoint's first trial filled in).
     pub plan: Plan,
-    /// The run parameters sent to the controller first (none for a tuning configuration).
-    pub session: Option<SessionConfig>,
+    /// How the session begins on the controller: its run parameters and what becomes of
+    /// the tables it holds (none for a tuning configuration, given to the controller
+    /// directly).
+    pub opening: Option<Opening>,
     /// The controller's configuration (its priming length paces the schedule).
     pub cfg: Config,
     /// The simulation to continue (`--continue`).
@@ -46,8 +49,6 @@ pub(crate) struct Start<'a> {
 pub(crate) struct Setup<'a> {
     start: Start<'a>,
     observer: &'a mut dyn Observer,
-    /// The simulator's state at the end of training, for the checkpoint.
-    end_state: Option<Box<SimState>>,
 }
 
 /// Microseconds of the candump log's time 0 (a fixed epoch: logs of the same run are equal).
@@ -55,20 +56,21 @@ const LOG_EPOCH_US: u64 = 1_700_000_000_000_000;
 
 impl<'a> Setup<'a> {
     pub fn new(start: Start<'a>, observer: &'a mut dyn Observer) -> Setup<'a> {
-        Setup {
-            start,
-            observer,
-            end_state: None,
-        }
+        Setup { start, observer }
     }
 
     pub fn spec(&self) -> &RunSpec {
         self.start.spec
     }
 
-    /// The simulator's state at the end of training (or where an interrupt stopped it).
-    pub fn take_end_state(&mut self) -> Option<Box<SimState>> {
-        self.end_state.take()
+    /// How the session begins (none: a tuning configuration).
+    pub fn opening(&self) -> Option<&Opening> {
+        self.start.opening.as_ref()
+    }
+
+    /// Tells the user something they must see.
+    pub fn notice(&mut self, text: &str) {
+        self.observer.notice(text);
     }
 
     /// [`Setup::drive`] on the wall clock (a real bus).
@@ -143,22 +145,30 @@ impl<'a> Setup<'a> {
         };
         let mut runner = Runner::new(rig, spec.seed, timing);
         if spec.command == Command::Conformance {
-            let session = self.start.session.ok_or_else(|| {
+            let opening = self.start.opening.as_ref().ok_or_else(|| {
                 LabError::Usage("the conformance suite needs a profile's configuration".into())
             })?;
+            // the suite re-seeds the tables and trains them: learned ones only if allowed
+            let before = tables::status(&mut runner)?;
+            opening::clear(&mut runner, opening, &before, &mut *self.observer)?;
             let patience = Patience {
                 answer: profile.answer,
                 quiet: profile.quiet,
+                alive: profile.heartbeat_timeout,
             };
-            let checks = conformance::run(&mut runner, session, patience);
+            let checks = conformance::run(&mut runner, opening.session, patience);
             report.bus_stats.runner = runner.stats();
             report.conformance = checks?;
             return Ok(runner.into_rig().into_port());
         }
-        if let Some(s) = self.start.session {
-            runner.configure(s)?;
+        let mut plan = self.start.plan;
+        if let Some(o) = &self.start.opening {
+            let opened = opening::open(&mut runner, o, &mut *self.observer)?;
+            if let (Some(steps), None) = (opened.kept_steps, self.start.resume) {
+                // the controller's own tables: the schedule goes on from their steps
+                plan.first_trial = steps as usize;
+            }
         }
-        let plan = self.start.plan;
         let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
         let target = self.start.outputs.checkpoint();
         let mut save = |runner: &Runner<P>, state: SimState| -> Result<()> {
@@ -190,7 +200,30 @@ impl<'a> Setup<'a> {
         if let Some(earlier) = self.start.resume {
             report.continue_from(&earlier.history);
         }
-        self.end_state = log.end_of_training.take();
+        // the session's end: a controller that trained keeps its tables (its store), the
+        // checkpoint asked for is read out of it (nothing learns in Mature or after an
+        // interrupt), then the session ends
+        if self.start.opening.is_some() {
+            if plan.trials > 0 {
+                if let Some(problem) = tables::save(&mut runner)? {
+                    self.observer.notice(&format!(
+                        "the controller did not keep its tables: {problem}"
+                    ));
+                }
+            }
+            if let Some(path) = target {
+                let st = tables::status(&mut runner)?;
+                let image = tables::read(&mut runner, &st)?;
+                // with the simulator's state at the end of training (or where an interrupt
+                // stopped it), for `--continue`
+                match log.end_of_training.take() {
+                    Some(state) => checkpoint_file::save_image_with_state(&image, path, *state)?,
+                    None => checkpoint_file::save_image(&image, path)?,
+                }
+            }
+        }
+        report.bus_stats.runner = runner.stats();
+        runner.finish()?;
         Ok(runner.into_rig().into_port())
     }
 }

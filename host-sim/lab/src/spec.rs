@@ -139,8 +139,21 @@ pub struct RunSpec {
     pub plan: Plan,
     /// Start from this checkpoint.
     pub checkpoint_in: Option<PathBuf>,
-    /// Use a checkpoint learned under another configuration.
+    /// Use a checkpoint learned under another configuration (it is relabelled as learned
+    /// under the run's before it is written in).
     pub allow_config_change: bool,
+    /// The controller's learned tables may be erased or replaced (`--reset-tables`): a
+    /// training run seeds new tables, or a checkpoint is written in, even over tables that
+    /// learned.
+    #[serde(default)]
+    pub reset_tables: bool,
+    /// Train the tables the controller holds instead of new ones (`--keep-tables`).
+    #[serde(default)]
+    pub keep_tables: bool,
+    /// The controller's store as a file (`--tables`): in process, or for the
+    /// `controller-node` the run starts; the tables it holds survive the run there.
+    #[serde(default)]
+    pub tables: Option<PathBuf>,
     /// Continuing a run (`plan.resume`): train for the trials the continued run had left
     /// (its `.sim` says how many it was planned for) instead of `plan.trials`.
     #[serde(default)]
@@ -171,6 +184,9 @@ impl RunSpec {
             plan: Plan::new(300, 100, 50),
             checkpoint_in: None,
             allow_config_change: false,
+            reset_tables: false,
+            keep_tables: false,
+            tables: None,
             trials_left: false,
             outputs: Outputs::default(),
             controller_override: None,
@@ -245,17 +261,34 @@ impl RunSpec {
         if self.bus.external_controller && self.bus.spec == BusSpec::InProc {
             return usage("--external-controller needs a real bus (socketcan:IFACE or slcan:/dev/DEVICE): the in-process bus has no controller but its own");
         }
-        if checkpoints && !profile.checkpoints {
+        if self.tables.is_some() && !profile.tables_file {
             return usage(match self.bus.spec {
-                BusSpec::SlcanQemu => "the firmware keeps its tables in RAM: no --checkpoint-in/--checkpoint-out",
-                _ => "an external controller (on socketcan:IFACE or slcan:/dev/DEVICE) keeps its own tables: no --checkpoint-in/--checkpoint-out",
+                BusSpec::SlcanQemu => "the firmware keeps its tables in its own store: no --tables",
+                _ => "an external controller keeps its tables in its own store: no --tables",
             });
+        }
+        if self.keep_tables && (self.reset_tables || self.checkpoint_in.is_some()) {
+            return usage("--keep-tables trains the tables the controller holds: not with --reset-tables or --checkpoint-in");
+        }
+        if matches!(self.command, Command::Eval | Command::Grasp)
+            && self.checkpoint_in.is_none()
+            && !self.bus.external_controller
+            && self.tables.is_none()
+        {
+            return usage("this needs the tables to run: --checkpoint-in CHECKPOINT, or a controller that holds them (--external-controller, --tables FILE)");
         }
         if self.bus.faults.is_some() && !profile.faults {
             return usage("--faults injects faults on the in-process bus only");
         }
-        if self.profile.law.host_only() && (!profile.host_laws || checkpoints) {
-            return usage("the model-based reference and the oracle (--controller model, oracle) carry the simulator: in process only, no checkpoints");
+        if self.profile.law.host_only()
+            && (!profile.host_laws || checkpoints || self.tables.is_some())
+        {
+            return usage("the model-based reference and the oracle (--controller model, oracle) carry the simulator: in process only, no checkpoints or tables");
+        }
+        if self.controller_override.is_some()
+            && (checkpoints || self.tables.is_some() || self.keep_tables)
+        {
+            return usage("a controller configuration no profile describes (tuning) takes no checkpoints or tables");
         }
         if plan.resume && self.checkpoint_in.is_none() {
             return usage("--continue needs --checkpoint-in");
@@ -264,7 +297,7 @@ impl RunSpec {
             && (self.outputs.checkpoint.is_none()
                 || profile.controller != trn_transport::ControllerSite::Inline)
         {
-            return usage("--checkpoint-every needs --checkpoint-out and the in-process controller (a controller process saves its tables at the end)");
+            return usage("--checkpoint-every needs --checkpoint-out and the in-process controller (a controller on a bus gives its tables at the end)");
         }
         if !(self.bus.timeout_s.is_finite()
             && self.bus.timeout_s > 0.0
@@ -311,10 +344,38 @@ mod tests {
         s.plan.eval_targets = usize::MAX;
         let e = s.check().unwrap_err().to_string();
         assert!(e.contains("--eval-targets") && e.contains("at most"), "{e}");
+        // checkpoints travel over every bus now; a tables file only where this run starts
+        // the controller
         let mut s = ok.clone();
         s.bus.spec = BusSpec::SlcanQemu;
         s.outputs.checkpoint = Some("x.ckpt".into());
-        assert!(s.check().unwrap_err().to_string().contains("RAM"));
+        assert!(s.check().is_ok());
+        s.tables = Some("t.bin".into());
+        assert!(s.check().unwrap_err().to_string().contains("--tables"));
+        let mut s = ok.clone();
+        s.bus.spec = BusSpec::SocketCan("can0".into());
+        s.bus.external_controller = true;
+        s.command = Command::Eval;
+        s.outputs.checkpoint = Some("x.ckpt".into());
+        assert!(
+            s.check().is_ok(),
+            "an external controller's tables read out"
+        );
+        s.tables = Some("t.bin".into());
+        assert!(s.check().unwrap_err().to_string().contains("--tables"));
+        let mut s = ok.clone();
+        s.command = Command::Eval;
+        assert!(s
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("--checkpoint-in"));
+        s.tables = Some("t.bin".into());
+        assert!(s.check().is_ok(), "the in-process controller's tables file");
+        let mut s = ok.clone();
+        s.keep_tables = true;
+        s.reset_tables = true;
+        assert!(s.check().unwrap_err().to_string().contains("--keep-tables"));
         let mut s = ok.clone();
         s.bus.spec = BusSpec::SocketCan("vcan0".into());
         s.bus.faults = Some(FaultConfig::default());

@@ -40,18 +40,24 @@ pub fn conformance(r: &Report) -> Result<()> {
         r.bus, r.seed, r.preset
     );
     for c in &r.conformance {
-        let verdict = if c.passed { "pass" } else { "FAIL" };
+        let verdict = match (c.passed, c.skipped) {
+            (_, true) => "n/a ",
+            (true, _) => "pass",
+            (false, _) => "FAIL",
+        };
         println!("  {verdict}  {}", c.name);
-        if !c.passed {
+        if !c.passed || c.skipped {
             println!("        {}", c.detail);
         }
     }
     let failed = r.conformance.iter().filter(|c| !c.passed).count();
-    println!(
-        "{} of {} checks passed",
-        r.conformance.len() - failed,
-        r.conformance.len()
-    );
+    let skipped = r.conformance.iter().filter(|c| c.skipped).count();
+    let run = r.conformance.len() - skipped;
+    let not_applicable = match skipped {
+        0 => String::new(),
+        n => format!(" ({n} more not applicable to this controller)"),
+    };
+    println!("{} of {run} checks passed{not_applicable}", run - failed);
     if failed > 0 || r.conformance.is_empty() {
         return Err(Error::NotConformant {
             failed,

@@ -1,92 +1,86 @@
-//! `controller-node`: the TRN controller as its own process on a SocketCAN interface
-//! (vcan0 or real hardware). `trn --bus socketcan:IFACE` starts it; it can also run alone.
-//! It exits after the runner's `ModeChange{Idle}`, saving its checkpoint if asked.
+//! `controller-node`: the TRN controller as its own process on a SocketCAN interface (vcan0
+//! or real hardware), as a board is on its bus. `trn --bus socketcan:IFACE` starts one; it
+//! can also run alone, across sessions, until SIGINT or SIGTERM.
 
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 
 /// `controller-node`: the controller as a CAN node in its own process, on a SocketCAN
-/// interface (vcan0 or a real adapter). It answers the protocol of protocol/SPEC.md until
-/// the runner ends the session (`ModeChange{Idle}`), then saves its tables if asked.
+/// interface (vcan0 or a real adapter). It answers the protocol of protocol/SPEC.md: each
+/// session's `SessionConfig` configures it (preset, ablation, law, image size, seed, CAN
+/// FD); its learned tables come from its store or over the bus (`trn ... --checkpoint-in`)
+/// and go out over the bus (`trn ... --checkpoint-out`). It runs until SIGINT or SIGTERM,
+/// then keeps its tables in its store and exits.
 #[derive(Debug, Parser)]
 #[command(name = "controller-node", version)]
 struct Args {
     /// SocketCAN interface.
     #[arg(long, default_value = "vcan0")]
     iface: String,
-    /// Seed of the initial tables.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Controller preset.
-    #[arg(long, value_enum, default_value_t = Preset::Project)]
-    preset: Preset,
-    /// Ablation.
-    #[arg(long, value_enum, default_value_t = Ablation::None)]
-    ablation: Ablation,
-    /// Control law (`trn` or `broyden`).
-    #[arg(long, value_enum, default_value_t = Law::Trn)]
-    controller: Law,
-    /// Simulator configuration (for the camera image size the initial weights span).
+    /// Keep the learned tables in this file (created if missing), as a board keeps them in
+    /// its flash: restored at start, saved when the node saves (on entering Mature, when the
+    /// runner asks, at exit). Without it the store is in memory and the tables last as long
+    /// as the process.
     #[arg(long)]
-    config: Option<String>,
-    /// CAN FD framing.
-    #[arg(long)]
-    fd: bool,
-    /// Start from this checkpoint.
-    #[arg(long)]
-    checkpoint_in: Option<PathBuf>,
-    /// Save the networks here at the end (atomically).
-    #[arg(long)]
-    checkpoint_out: Option<PathBuf>,
-    /// Use a checkpoint learned under another configuration.
-    #[arg(long)]
-    allow_config_change: bool,
+    tables: Option<PathBuf>,
 }
 
 #[cfg(target_os = "linux")]
 fn run(a: &Args) -> Result<(), String> {
-    use trn_lab::{checkpoint_file, output, Command, Profile, RunSpec};
-    use trn_transport::controller_loop;
-    let mut spec = RunSpec::new(Command::Train, a.seed)
-        .with_plant(a.config.as_deref())
-        .map_err(|e| e.to_string())?;
-    spec.profile = Profile {
-        preset: a.preset,
-        ablation: a.ablation,
-        law: a.controller,
-    };
-    // the output is checked before the session: a board's tables are not lost to an
-    // unwritable path at the end
-    if let Some(p) = &a.checkpoint_out {
-        output::check_path(p, output::Kind::Checkpoint).map_err(|e| e.to_string())?;
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+    use trn_lab::board;
+    use trn_transport::{controller_loop, WallClock};
+    // the reset configuration of a board: the project preset for the default cameras,
+    // tables seeded with 1; a session's `SessionConfig` replaces both
+    let reset = presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
+    let (mut b, restored) = board::boot(reset, a.tables.as_deref()).map_err(|e| e.to_string())?;
+    match &restored {
+        Ok(copy) => eprintln!(
+            "controller-node: restored tables of {} and {} learning steps (stored copy {})",
+            copy.steps.0, copy.steps.1, copy.sequence
+        ),
+        Err(e) => {
+            b.ctrl.init_random(1);
+            if let Some(problem) = board::restore_problem(e) {
+                eprintln!("controller-node: {problem}: starting with reset tables");
+            }
+        }
     }
-    let provenance = trn_controller::checkpoint::Provenance::of(a.preset, a.ablation);
-    let mut ctrl = Box::new(trn_controller::Controller::new(spec.profile_config()));
-    ctrl.init_random(a.seed);
-    if let Some(p) = &a.checkpoint_in {
-        checkpoint_file::load(&mut ctrl, p, provenance, a.allow_config_change)
-            .map_err(|e| e.to_string())?;
-    }
+    let guard = os_entropy().unwrap_or_else(|e| {
+        eprintln!("controller-node: no entropy for the guard ({e}): its learned tables cannot be replaced over the bus");
+        [0; 16]
+    });
+    let mut node = board::node(&mut b, restored.ok(), guard, trn_node::NodeConfig::HOST);
     let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
         .map_err(|e| format!("SocketCAN interface {}: {e}", a.iface))?;
-    let mode = if a.fd {
-        trn_protocol::BusMode::Fd
-    } else {
-        trn_protocol::BusMode::Classic
-    };
-    let stop = std::sync::atomic::AtomicBool::new(false);
-    let (ctrl, stats) = controller_loop::run(port, ctrl, mode, &stop).map_err(|e| e.to_string())?;
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, stop.clone()).map_err(|e| e.to_string())?;
+    }
+    let clock = WallClock::start();
+    let ran = controller_loop::run(port, &mut b, &mut node, &clock, &stop);
+    // what changed since the last save is kept before the process ends
+    let kept = board::save_now(&mut node, &mut b, &clock);
+    let s = node.stats();
     eprintln!(
         "controller-node: {} trials, {} aborted, {} frame errors",
-        stats.trials, stats.aborted, stats.frame_errors
+        s.trials, s.aborted, s.frame_errors
     );
-    if let Some(p) = &a.checkpoint_out {
-        checkpoint_file::save(&ctrl, provenance, p).map_err(|e| e.to_string())?;
-    }
-    Ok(())
+    ran.map_err(|e| e.to_string())?;
+    kept.map_err(|e| format!("the tables were not saved: {e}"))
+}
+
+/// 16 bytes of the operating system's entropy: the guard's seed, which nothing on the bus
+/// can predict.
+#[cfg(target_os = "linux")]
+fn os_entropy() -> std::io::Result<[u8; 16]> {
+    use std::io::Read;
+    let mut seed = [0u8; 16];
+    std::fs::File::open("/dev/urandom")?.read_exact(&mut seed)?;
+    Ok(seed)
 }
 
 #[cfg(not(target_os = "linux"))]

@@ -1,13 +1,13 @@
 //! The controller node's host loop on a real bus (the `controller-node` process on
 //! SocketCAN): the node logic is `trn-node`, the same the firmware runs; this loop adds the
 //! wall clock and sleeps until a frame arrives or the node's next deadline
-//! ([`ControllerNode::poll_timeout`]).
+//! ([`ControllerNode::poll_timeout`]). It runs until told to stop, across sessions.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use trn_controller::Control;
-use trn_node::{ControllerNode, NodeConfig, NodeStats};
+use trn_node::ControllerNode;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler};
 
@@ -43,22 +43,23 @@ where
 /// The longest sleep between turns (the `stop` flag is looked at after each).
 const MAX_SLEEP: Duration = Duration::from_millis(100);
 
-/// Runs the controller node on `port` until the runner sends `ModeChange{Idle}` or `stop`
-/// is set. Returns the controller (with its learned tables) and the node's counters.
+/// Runs `node` with the controller `ctrl` on `port` until `stop` is set (a signal, the
+/// embedding's end), as a board runs: a session's end (`ModeChange{Idle}`) does not end it.
+/// The node comes booted (its guard seeded, told what was restored) and starts framing in
+/// CAN 2.0 (a `SessionConfig` switches it to FD); its counters are [`ControllerNode::stats`].
 pub fn run<P, C: Control + ?Sized>(
     mut port: P,
-    mut ctrl: Box<C>,
-    mode: BusMode,
+    ctrl: &mut C,
+    node: &mut ControllerNode,
+    clock: &WallClock,
     stop: &AtomicBool,
-) -> Result<(Box<C>, NodeStats), trn_protocol::Error>
+) -> Result<(), trn_protocol::Error>
 where
     P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    let clock = WallClock::start();
-    let mut node = ControllerNode::new(NodeConfig::HOST);
-    let mut enc = Encoder::new(mode);
+    let mut enc = Encoder::new(BusMode::Classic);
     let mut rx: Reassembler = Reassembler::new(trn_protocol::DEFAULT_STALE_MS);
-    while !stop.load(Ordering::Relaxed) && !node.idle_requested() {
+    while !stop.load(Ordering::Relaxed) {
         let now = millis(clock.now());
         let sleep = node.poll_timeout().map_or(MAX_SLEEP, |due| {
             let ahead = due.wrapping_sub(now);
@@ -73,13 +74,7 @@ where
             port: &mut port,
             first,
         };
-        node.service(
-            &mut *ctrl,
-            &mut rx,
-            &mut enc,
-            &mut waited,
-            millis(clock.now()),
-        )?;
+        node.service(ctrl, &mut rx, &mut enc, &mut waited, millis(clock.now()))?;
     }
-    Ok((ctrl, *node.stats()))
+    Ok(())
 }

@@ -38,14 +38,34 @@ pub struct SimulatedBus<C: Control + ?Sized> {
 
 impl<C: Control + ?Sized> SimulatedBus<C> {
     /// A bus in `mode` with `faults` (seeded by `seed`), the node running `ctrl` with the
-    /// host's timing ([`NodeConfig::HOST`]).
+    /// host's timing ([`NodeConfig::HOST`]), its guard unseeded (it issues no nonce) and
+    /// nothing announced about its tables.
     pub fn new(mode: BusMode, seed: u64, faults: Option<FaultConfig>, ctrl: Box<C>) -> Self {
+        Self::with_node(
+            mode,
+            seed,
+            faults,
+            ctrl,
+            ControllerNode::new(NodeConfig::HOST),
+        )
+    }
+
+    /// [`SimulatedBus::new`] with a node the caller booted: its guard seeded
+    /// ([`ControllerNode::seed_guard`]) and told what the controller's store restored
+    /// ([`ControllerNode::tables_restored`]), as a board's firmware does at reset.
+    pub fn with_node(
+        mode: BusMode,
+        seed: u64,
+        faults: Option<FaultConfig>,
+        ctrl: Box<C>,
+        node: ControllerNode,
+    ) -> Self {
         let bus = InProcBus::new(mode, seed);
         if let Some(f) = faults {
             bus.set_faults(f);
         }
         let node = InlineNode {
-            node: ControllerNode::new(NodeConfig::HOST),
+            node,
             ctrl,
             rx: Reassembler::new(trn_protocol::DEFAULT_STALE_MS),
             enc: Encoder::new(mode),
@@ -79,31 +99,30 @@ impl<C: Control + ?Sized> SimulatedBus<C> {
         &self.node.ctrl
     }
 
+    /// The controller node (its session, its counters).
+    pub fn node(&self) -> &ControllerNode {
+        &self.node.node
+    }
+
     /// Ends the session: the controller (with its learned tables) and the node's counters.
     pub fn into_controller(self) -> (Box<C>, NodeStats) {
         let stats = *self.node.node.stats();
         (self.node.ctrl, stats)
     }
 
-    /// The node's turn at the present instant: every frame on the bus, then its timers. A
-    /// node that has been told the session is over (`ModeChange{Idle}`) is not serviced
-    /// any more, as a host process or the firmware ends its loop then.
+    /// The node's turn at the present instant: every frame on the bus, then its timers. The
+    /// node runs on after a session ends (`ModeChange{Idle}`), as a board does: it answers
+    /// until the bus is dropped.
     fn node_turn(&mut self) -> Result<(), Error> {
         let n = &mut self.node;
-        if n.node.idle_requested() {
-            return Ok(());
-        }
         let now = millis(self.clock.now());
         n.node
             .service(&mut *n.ctrl, &mut n.rx, &mut n.enc, &mut n.port, now)
     }
 
-    /// When the node next needs a turn, if it runs.
+    /// When the node next needs a turn.
     fn node_deadline(&self) -> Option<Duration> {
         let n = &self.node.node;
-        if n.idle_requested() {
-            return None;
-        }
         let now = self.clock.now();
         let due = n.poll_timeout()?;
         let ahead = due.wrapping_sub(millis(now));
@@ -201,10 +220,10 @@ mod tests {
         );
     }
 
-    /// The node answers a mode change at the same simulated instant; after `Idle` it is not
-    /// serviced any more (nothing arrives, the clock runs to the end of the wait).
+    /// The node answers a mode change at the same simulated instant; after `Idle` it runs
+    /// on, as a board does (its heartbeats go on, every 100 ms).
     #[test]
-    fn the_node_answers_at_once_and_stops_after_idle() {
+    fn the_node_answers_at_once_and_runs_on_after_idle() {
         let mut b = bus(None);
         let mut enc = Encoder::new(BusMode::Classic);
         let mut rx: Reassembler = Reassembler::new(trn_protocol::DEFAULT_STALE_MS);
@@ -222,7 +241,8 @@ mod tests {
         }
         assert!(echoed, "the echo of Idle");
         assert_eq!(b.clock().now(), t0, "answered at the same instant");
-        assert_eq!(heartbeats(&mut b, Duration::from_secs(1)), 0);
+        assert!(b.node().idle_requested());
+        assert_eq!(heartbeats(&mut b, Duration::from_secs(1)), 10);
         assert_eq!(b.clock().now(), t0 + Duration::from_secs(1));
     }
 

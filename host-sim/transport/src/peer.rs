@@ -29,79 +29,54 @@ pub fn controller_node_exe() -> Result<PathBuf, String> {
     }
 }
 
-/// What a `controller-node` process is started with.
+/// What a `controller-node` process is started with: it is configured by the session's
+/// `SessionConfig` over the bus, and its tables come over the bus or from its store.
 #[derive(Debug, Clone, Default)]
 pub struct NodeArgs<'a> {
     /// SocketCAN interface.
     pub iface: &'a str,
-    /// Seed of the initial tables.
-    pub seed: u64,
-    /// Preset name.
-    pub preset: &'a str,
-    /// Ablation name.
-    pub ablation: &'a str,
-    /// Control law name (`trn`, `broyden`).
-    pub controller: &'a str,
-    /// Simulator configuration (for the image size).
-    pub config: Option<&'a Path>,
-    /// CAN FD framing.
-    pub fd: bool,
-    /// Start from this checkpoint.
-    pub checkpoint_in: Option<&'a Path>,
-    /// Save the tables here at the end.
-    pub checkpoint_out: Option<&'a Path>,
+    /// Its tables file (`--tables`): the store its tables survive in; none, a store in memory.
+    pub tables: Option<&'a Path>,
 }
 
 /// Starts `controller-node` on a SocketCAN interface.
 pub fn spawn_controller_node(a: &NodeArgs, bus: &str) -> Result<Child, TransportError> {
     let exe = controller_node_exe().map_err(|m| TransportError::open(bus, m))?;
     let mut cmd = Command::new(exe);
-    cmd.arg("--iface")
-        .arg(a.iface)
-        .arg("--seed")
-        .arg(a.seed.to_string());
-    cmd.arg("--preset")
-        .arg(a.preset)
-        .arg("--ablation")
-        .arg(a.ablation)
-        .arg("--controller")
-        .arg(a.controller);
-    if let Some(c) = a.config {
-        cmd.arg("--config").arg(c);
-    }
-    if a.fd {
-        cmd.arg("--fd");
-    }
-    if let Some(p) = a.checkpoint_in {
-        cmd.arg("--checkpoint-in").arg(p);
-    }
-    if let Some(p) = a.checkpoint_out {
-        cmd.arg("--checkpoint-out").arg(p);
+    cmd.arg("--iface").arg(a.iface);
+    if let Some(p) = a.tables {
+        cmd.arg("--tables").arg(p);
     }
     let child = cmd
         .spawn()
         .map_err(|e| TransportError::open(bus, format!("cannot start controller-node: {e}")))?;
-    // give the node time to open its socket before the first target
+    // give the node time to open its socket before the first request
     std::thread::sleep(Duration::from_millis(300));
     Ok(child)
 }
 
-/// Ends a controller process after the session: waits for it to exit (it does after the
-/// runner's `Idle`), killing it when the session failed or it does not exit within 10 s.
+/// Ends a controller process after the session. A controller runs on across sessions, as a
+/// board does (`controller-node` until a signal, the firmware in QEMU until QEMU ends): one
+/// that already exited failed if the session needed it; one still running is asked to stop
+/// (SIGTERM: `controller-node` keeps its tables and exits, QEMU ends) and killed if it has
+/// not within 5 s.
 pub fn finish_process(mut child: Child, session_ok: bool, bus: &str) -> Result<(), TransportError> {
-    let deadline = Instant::now() + Duration::from_secs(10);
+    match child.try_wait() {
+        Ok(Some(status)) if status.success() || !session_ok => return Ok(()),
+        Ok(Some(status)) => {
+            return Err(TransportError::Controller {
+                bus: bus.to_string(),
+                msg: format!("exited with {status} during the session"),
+            })
+        }
+        _ => {}
+    }
+    terminate(&child);
+    let deadline = Instant::now() + Duration::from_secs(5);
     loop {
         match child.try_wait() {
-            Ok(Some(status)) if status.success() || !session_ok => return Ok(()),
-            Ok(Some(status)) => {
-                return Err(TransportError::Controller {
-                    bus: bus.to_string(),
-                    msg: format!("controller-node exited with {status}"),
-                })
-            }
-            Ok(None) if Instant::now() < deadline && session_ok => {
-                std::thread::sleep(Duration::from_millis(20))
-            }
+            Ok(Some(_)) => return Ok(()),
+            Ok(None) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
             _ => {
                 let _ = child.kill();
                 let _ = child.wait();
@@ -110,3 +85,16 @@ pub fn finish_process(mut child: Child, session_ok: bool, bus: &str) -> Result<(
         }
     }
 }
+
+/// Asks a child to stop (SIGTERM).
+#[cfg(unix)]
+fn terminate(child: &Child) {
+    #[allow(unsafe_code)]
+    // SAFETY: kill(2) on the id of a child this process started and has not reaped.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+    }
+}
+
+#[cfg(not(unix))]
+fn terminate(_: &Child) {}

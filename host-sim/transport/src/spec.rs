@@ -1,6 +1,6 @@
 //! The bus forms of `--bus` ([`BusSpec`]) and what each one can do ([`BusProfile`], one
 //! value per transport, as smoltcp's `DeviceCapabilities`): its clock and timing, whether
-//! faults can be injected, where the controller runs and whether its tables can be saved.
+//! faults can be injected, where the controller runs and whether its store can be a file.
 //! The lab reads the profile instead of matching on the transport.
 
 use std::time::Duration;
@@ -55,9 +55,10 @@ pub struct BusProfile {
     pub faults: bool,
     /// Where the controller runs.
     pub controller: ControllerSite,
-    /// Its tables come back to this run at the end (`--checkpoint-out`) and can be given
-    /// to it at the start (`--checkpoint-in`).
-    pub checkpoints: bool,
+    /// Its store can be a file of this run (`--tables`): the controller runs in this
+    /// process or in a `controller-node` this run starts. (Checkpoints travel over every bus:
+    /// the runner reads the tables out and writes them in, SPEC 3.5.)
+    pub tables_file: bool,
     /// It can run a host-only law (the simulator's model, the oracle), which needs the
     /// plant in the same process.
     pub host_laws: bool,
@@ -113,7 +114,7 @@ impl BusSpec {
                 simulated_clock: true,
                 faults: true,
                 controller: ControllerSite::Inline,
-                checkpoints: true,
+                tables_file: true,
                 host_laws: true,
             },
             // the firmware's clock runs about ten times slower than the wall clock under
@@ -128,7 +129,7 @@ impl BusSpec {
                 simulated_clock: false,
                 faults: false,
                 controller: site(ControllerSite::Qemu),
-                checkpoints: false,
+                tables_file: false,
                 host_laws: false,
             },
             // a board behind SocketCAN or a serial adapter answers within milliseconds; the
@@ -145,7 +146,7 @@ impl BusSpec {
                     BusSpec::SocketCan(_) => site(ControllerSite::Process),
                     _ => ControllerSite::External,
                 },
-                checkpoints: !external && matches!(self, BusSpec::SocketCan(_)),
+                tables_file: !external && matches!(self, BusSpec::SocketCan(_)),
                 host_laws: false,
             },
         }
@@ -200,8 +201,10 @@ mod tests {
             assert!(p.reply < p.answer && p.quiet < p.answer, "{spec}");
         }
         let p = BusSpec::InProc.profile(false);
-        assert!(p.simulated_clock && p.faults && p.host_laws && p.checkpoints);
-        assert!(!BusSpec::SocketCan("x".into()).profile(true).checkpoints);
+        assert!(p.simulated_clock && p.faults && p.host_laws && p.tables_file);
+        assert!(!BusSpec::SocketCan("x".into()).profile(true).tables_file);
+        assert!(BusSpec::SocketCan("x".into()).profile(false).tables_file);
+        assert!(!BusSpec::SlcanQemu.profile(false).tables_file);
         assert_eq!(
             BusSpec::SocketCan("x".into()).profile(true).controller,
             ControllerSite::External

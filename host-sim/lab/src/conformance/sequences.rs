@@ -1,27 +1,23 @@
-//! The suite's sequences of `protocol/SPEC.md` 3 and 3.2, in the order the suite sends them:
-//! the session's start, priming, training, aborts and refusals, and the mature mode (grasp,
-//! frozen tables, a configuration refused). Each sends its messages through the [`Suite`]
-//! and records one verdict per requirement.
+//! The session's trial sequences (SPEC 3, 3.1, 3.2): the configuration and its repeat,
+//! priming with and without supervision, training trials of both stages with a fixed
+//! number of fine moves and with the controller's own rule, a late duplicate of an older
+//! trial, an invalid reading's abort and its repeat, a grasp target out of order.
 
 use embedded_can::blocking::Can;
 use trn_node::codes;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, CaptureKind, Envelope, GraspRequest, Message, Mode, PointStatus, SessionConfig,
-    Stage1Target, Stage2Target, SupervisedPressure,
+    CanFrame, CaptureKind, Envelope, Message, Mode, PointStatus, SessionConfig, SupervisedPressure,
 };
 
-use super::journal::{gripper_commands, missing_error, move_problems, moves, reports, Move};
-use super::{Suite, STAGE1_JOINTS, STAGE2_JOINTS};
+use super::journal::{errors, missing_error, move_problems, moves, reports};
+use super::{nothing_moved, stage1, stage2, Suite, STAGE1_JOINTS, STAGE2_JOINTS};
 use crate::error::Result;
-use crate::targets::Target;
 
 impl<P> Suite<'_, P>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    /// The session's start: `SessionConfig` and its repeat acknowledged, then
-    /// `ModeChange{Priming}`.
     pub(super) fn session(&mut self, session: SessionConfig) -> Result<()> {
         let first = self.runner.configure(session);
         let repeat = self.runner.configure(session);
@@ -42,8 +38,36 @@ where
         Ok(())
     }
 
-    /// Priming: a target without its supervised pressure refused, a supervised trial, and
-    /// the same target again answered with the same report.
+    /// A trial's problems: how it ended, its moves (joints, captures, `seq`), the number of
+    /// fine moves and its report.
+    fn trial_problems(
+        j: &[Envelope],
+        trial: u32,
+        stage: u8,
+        fine: u8,
+        joints: &[u8],
+        what: CaptureKind,
+    ) -> Vec<String> {
+        let m = moves(j);
+        let mut p = move_problems(&m, joints, what);
+        if m.len() != 1 + fine as usize {
+            p.push(format!(
+                "{} moves, expected the coarse move and {fine} fine",
+                m.len()
+            ));
+        }
+        match reports(j).as_slice() {
+            [r] if r.trial == trial && r.stage == stage && r.fine_moves == fine => {}
+            other => p.push(format!(
+                "reports {other:?}, expected one TrialReport{{trial: {trial}, stage: {stage}, fine_moves: {fine}}}"
+            )),
+        }
+        if !errors(j).is_empty() {
+            p.push(format!("errors {:?}", errors(j)));
+        }
+        p
+    }
+
     pub(super) fn priming(&mut self) -> Result<()> {
         // a priming target without its supervised pressure starts nothing
         let t = self.target(false, 5)?;
@@ -97,8 +121,6 @@ where
         Ok(())
     }
 
-    /// Training: stage-1 and stage-2 trials with a fixed number of fine moves, and a stage-1
-    /// trial with the controller's own stop rule.
     pub(super) fn training(&mut self) -> Result<()> {
         let mode = self.runner.mode(Mode::Training);
         self.collect(|_| true, false)?;
@@ -143,11 +165,23 @@ where
             "Stage-1 trial with the controller's own stop rule (fine_moves: 255): the report counts the moves made",
             p,
         );
+
+        // a late duplicate of an older trial (not the one that ended last) starts nothing
+        let t = self.target(false, 5)?;
+        let older = trial - 2;
+        self.send(stage1(older, &t, 1, false).into())?;
+        let j = self.collect(|_| true, true)?;
+        let mut p = nothing_moved(&j);
+        if !reports(&j).is_empty() {
+            p.push(format!("reports {:?}", reports(&j)));
+        }
+        self.verdict(
+            "A late target of an older trial of the session (not the last ended) starts nothing: no move, no report",
+            p,
+        );
         Ok(())
     }
 
-    /// Aborts and refusals: an invalid light aborts the trial, its repeat is answered with
-    /// the abort again, and a grasp's stage 2 alone is out of order.
     pub(super) fn abort(&mut self) -> Result<()> {
         let t = self.target(false, 5)?;
         let trial = self.next_trial();
@@ -214,157 +248,5 @@ where
             p,
         );
         Ok(())
-    }
-
-    /// Mature: a grasp (both stages, then the close), frozen tables, and a new configuration
-    /// refused outside Idle.
-    pub(super) fn mature(&mut self, session: SessionConfig) -> Result<()> {
-        let mode = self.runner.mode(Mode::Mature);
-        self.collect(|_| true, false)?;
-        self.verdict(
-            "ModeChange{Mature} is acknowledged",
-            mode.err().map(|e| e.to_string()).into_iter().collect(),
-        );
-
-        // a grasp: stage 1, stage 2 from where it ended, both reports, then the close
-        let t = self.target(true, 5)?;
-        let trial = self.next_trial();
-        self.runner.rig_mut().gripper_mut().open();
-        self.send(GraspRequest { trial }.into())?;
-        self.send(stage1(trial, &t, 1, true).into())?;
-        self.send(stage2(trial, &t, 1, true).into())?;
-        let closed = |j: &[Envelope]| !gripper_commands(j).is_empty();
-        let j = self.collect(closed, false)?;
-        let m = moves(&j);
-        let (lights, centre): (Vec<_>, Vec<_>) = m
-            .iter()
-            .cloned()
-            .partition(|m| m.what == CaptureKind::GripperLights);
-        let mut p = move_problems(&lights, &STAGE1_JOINTS, CaptureKind::GripperLights);
-        p.extend(move_problems(
-            &centre,
-            &STAGE2_JOINTS,
-            CaptureKind::GripperCentre,
-        ));
-        if m.iter().position(|m| m.what == CaptureKind::GripperCentre)
-            < m.iter().rposition(|m| m.what == CaptureKind::GripperLights)
-        {
-            p.push("a stage-2 move before the end of stage 1".into());
-        }
-        if (lights.len(), centre.len()) != (2, 2) {
-            p.push(format!(
-                "{} stage-1 and {} stage-2 moves, expected 2 and 2 (both stages use the Stage2Target's fine_moves: 1)",
-                lights.len(),
-                centre.len()
-            ));
-        }
-        let stages: Vec<u8> = reports(&j).iter().map(|r| r.stage).collect();
-        if stages != [1, 2] || reports(&j).iter().any(|r| r.trial != trial) {
-            p.push(format!(
-                "reports {:?}, expected stage 1 then stage 2",
-                reports(&j)
-            ));
-        }
-        let last_report = j
-            .iter()
-            .rposition(|e| matches!(e.msg, Message::TrialReport(_)));
-        match gripper_commands(&j).first() {
-            Some(&(i, true)) if last_report.is_some_and(|r| r < i) => {}
-            other => p.push(format!(
-                "gripper command {other:?}: GripperCommand{{close: true}} after both reports"
-            )),
-        }
-        self.verdict(
-            "Grasp: GraspRequest, Stage1Target{grasp}, Stage2Target{grasp}: stage-1 moves, then stage-2 moves, TrialReport stage 1 and 2, then GripperCommand{close}",
-            p,
-        );
-
-        // in Mature the tables are frozen: the same target from the same start pose gives the
-        // same commands, whatever `learn` says (one move each: a fine move would depend on
-        // the cameras' noise)
-        let t = self.target(false, 5)?;
-        let start = self.runner.rig().plant().random_pressures(&mut self.rng);
-        let mut runs = Vec::new();
-        for _ in 0..2 {
-            {
-                let mut plant = self.runner.rig_mut().plant_mut();
-                plant.command(&start);
-                plant.settle();
-            }
-            let trial = self.next_trial();
-            let mut msg = stage1(trial, &t, 0, false);
-            msg.learn = true;
-            self.send(msg.into())?;
-            let j = self.collect(Self::ended(trial, 1), false)?;
-            runs.push(moves(&j).iter().map(Move::raws).collect::<Vec<_>>());
-        }
-        let mut p = Vec::new();
-        if runs[0].is_empty() || runs[0] != runs[1] {
-            p.push(format!("first run {:?}, second {:?}", runs[0], runs[1]));
-        }
-        self.verdict(
-            "Mature: a target with learn: true learns nothing (the same target, fine_moves: 0, from the same start pose is commanded the same way twice)",
-            p,
-        );
-
-        // a new configuration outside Idle is refused, nothing changes
-        let other = SessionConfig {
-            seed: session.seed.wrapping_add(1),
-            ..session
-        };
-        self.send(other.into())?;
-        let j = self.collect(Self::error_seen(codes::CONFIG_REJECTED), true)?;
-        let mut p: Vec<String> = missing_error(
-            &j,
-            codes::CONFIG_REJECTED,
-            codes::CONFIG_NOT_IDLE,
-            "CONFIG_REJECTED (not idle)",
-        )
-        .into_iter()
-        .collect();
-        if j.iter().any(|e| matches!(e.msg, Message::SessionConfig(_))) {
-            p.push("the new configuration was acknowledged".into());
-        }
-        self.verdict(
-            "A SessionConfig outside Idle is refused (CONFIG_REJECTED, detail 1) and not acknowledged",
-            p,
-        );
-        Ok(())
-    }
-}
-
-/// Problems if the controller moved or reported.
-fn nothing_moved(j: &[Envelope]) -> Vec<String> {
-    let mut p = Vec::new();
-    if !moves(j).is_empty()
-        || j.iter().any(|e| {
-            matches!(
-                e.msg,
-                Message::PressureCommand(_) | Message::CaptureRequest(_)
-            )
-        })
-    {
-        p.push("the controller moved".to_string());
-    }
-    p
-}
-
-fn stage1(trial: u32, t: &Target, fine_moves: u8, grasp: bool) -> Stage1Target {
-    Stage1Target {
-        trial,
-        learn: !grasp,
-        grasp,
-        fine_moves,
-        v: t.v,
-    }
-}
-
-fn stage2(trial: u32, t: &Target, fine_moves: u8, grasp: bool) -> Stage2Target {
-    Stage2Target {
-        trial,
-        learn: !grasp,
-        grasp,
-        fine_moves,
-        c: t.c,
     }
 }

@@ -60,7 +60,9 @@ impl ServoDrive {
     }
 
     /// Timers: enters the safe state when the controller's heartbeat was lost (venting the
-    /// tubes if so configured) and announces it once with `SafeStateEntered`.
+    /// tubes if so configured) and announces it once with `SafeStateEntered`. The drive
+    /// forgets the `seq` of its last command then (SPEC 3.6, 8): a controller that restarted
+    /// counts from 1 again and must be heard, not taken for a late sender.
     pub fn poll(
         &mut self,
         plant: &mut Plant,
@@ -74,6 +76,7 @@ impl ServoDrive {
             }
             let msg = self.monitor.safe_state_message(self.last_raw);
             self.last_raw = self.monitor.held_raw(self.last_raw);
+            self.last = None;
             out.push(Envelope::new(self.node(), msg));
         }
         Ok(())
@@ -246,6 +249,45 @@ mod tests {
         d.on_message(&mut plant, &heartbeat(), 1000, &mut out)
             .unwrap();
         assert!(!d.is_safe());
+    }
+
+    /// A controller that restarts counts its `seq` from 1 again: after its heartbeat was
+    /// lost the drive forgets the last `seq` and applies the new controller's first command.
+    /// Fails if the drive still takes seq 1 for a command older than the old controller's
+    /// last (it would never move again: 1 is behind 40,000 by less than 2^15 after a wrap).
+    #[test]
+    fn a_restarted_controller_is_heard_after_its_heartbeat_was_lost() {
+        let mut plant = Plant::new(&SimConfig::default(), 1).unwrap();
+        let mut d = ServoDrive::new(Joint::new(0).unwrap(), HeartbeatConfig::default(), 0);
+        let mut out = Outbox::new();
+        d.on_message(&mut plant, &heartbeat(), 0, &mut out).unwrap();
+        // the old controller's last command: seq 20,000
+        d.on_message(&mut plant, &command(0, 20_000, 3000), 0, &mut out)
+            .unwrap();
+        // while its heartbeat is heard, seq 1 is a late command (behind by less than 2^15)
+        assert!(!d
+            .on_message(&mut plant, &command(0, 1, 1000), 10, &mut out)
+            .unwrap());
+        // it stops; the drive goes to its safe state and forgets the seq
+        d.poll(&mut plant, 600, &mut out).unwrap();
+        assert!(d.is_safe());
+        // the restarted controller beats again and sends its first move, seq 1
+        d.on_message(&mut plant, &heartbeat(), 700, &mut out)
+            .unwrap();
+        assert!(!d.is_safe());
+        out.clear();
+        assert!(d
+            .on_message(&mut plant, &command(0, 1, 1000), 710, &mut out)
+            .unwrap());
+        let Message::ServoStatus(s) = out[0].msg else {
+            panic!("{out:?}")
+        };
+        assert_eq!(
+            (s.seq, s.applied, s.safe_state),
+            (1, 1000, SafeState::Normal)
+        );
+        plant.advance(1.0);
+        assert!(plant.joints()[0].pressure() < -0.4, "raw 1000 was applied");
     }
 
     #[test]

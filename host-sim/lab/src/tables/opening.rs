@@ -1,0 +1,185 @@
+//! How a session begins on a controller that may hold learned tables (SPEC 3.2, 3.4, 3.5):
+//! the runner asks for the tables' status first, then
+//!
+//! | the run wants | the controller's tables never learned | they learned |
+//! |---|---|---|
+//! | new tables ([`Want::New`]: `trn train`, the conformance suite) | `SessionConfig{keep_tables: false}` | refused before anything changes, unless the user allowed it (`--reset-tables`): then said what is erased, and re-seeded with the guard's nonce (`ConfirmedSessionConfig`) |
+//! | the tables it holds ([`Want::Held`]: `trn eval`, `trn grasp`, `trn train --keep-tables`) | as for new tables (`trn train --keep-tables`), or kept if their configuration is the run's | kept (`keep_tables: true`) if learned under the run's configuration; refused otherwise, naming theirs |
+//! | a checkpoint's tables ([`Want::Image`]: `--checkpoint-in`) | written in, then kept | written in with the guard's nonce if allowed (`--reset-tables`; said what is replaced), refused otherwise |
+//!
+//! Nothing destructive is sent before the check that allows it.
+
+use embedded_can::blocking::Can;
+use trn_controller::presets::ImageSize;
+use trn_protocol::bus::ReceiveTimeout;
+use trn_protocol::{CanFrame, ConfirmedSessionConfig, GuardOp, SessionConfig, TablesStatus};
+
+use super::{configuration_named, describe, learned, nonce, retry_with_new_nonce, status, write};
+use crate::error::{LabError, Result};
+use crate::observe::Observer;
+use crate::runner::{Refused, Runner};
+
+/// What the run wants the controller's tables to be when its session begins.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Want {
+    /// New tables, seeded with the session's seed.
+    New,
+    /// The tables the controller holds, under the run's configuration; `or_new`: new ones
+    /// when those never learned (`trn train --keep-tables`).
+    Held {
+        /// Seed new tables when the held ones never learned.
+        or_new: bool,
+    },
+    /// A checkpoint's image, written in.
+    Image(Vec<u8>),
+}
+
+/// The start of a session: what is wanted and allowed, and the run's configuration.
+#[derive(Debug, Clone)]
+pub struct Opening {
+    /// What the run wants.
+    pub want: Want,
+    /// The user allowed erasing or replacing learned tables (`--reset-tables`).
+    pub reset: bool,
+    /// The run's session configuration (`keep_tables` is set here).
+    pub session: SessionConfig,
+    /// Its configuration fingerprint.
+    pub fingerprint: u32,
+    /// The cameras' image size (to name a configuration).
+    pub image: ImageSize,
+}
+
+/// How the session began.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Opened {
+    /// What the controller held before.
+    pub before: TablesStatus,
+    /// The stage-1 learning steps of the tables the session runs on, when it keeps the
+    /// tables the controller held (the schedule goes on from there).
+    pub kept_steps: Option<u32>,
+}
+
+impl Opening {
+    fn with_keep(&self, keep_tables: bool) -> SessionConfig {
+        SessionConfig {
+            keep_tables,
+            ..self.session
+        }
+    }
+
+    fn held(&self, s: &TablesStatus) -> String {
+        format!("holds learned tables ({})", describe(s, self.image))
+    }
+}
+
+/// Begins the session on the controller (see the module): its status, then what the run
+/// wants and allows; `observer` is told what is erased or replaced before it is.
+pub fn open<P>(runner: &mut Runner<P>, o: &Opening, observer: &mut dyn Observer) -> Result<Opened>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let before = status(runner)?;
+    let mut kept_steps = None;
+    match &o.want {
+        Want::Held { or_new } if *or_new && !learned(&before) => {
+            observer.notice("the controller's tables never learned: training new ones");
+            runner.configure(o.with_keep(false))?;
+        }
+        Want::Held { .. } => {
+            if before.fingerprint != o.fingerprint {
+                let theirs = configuration_named(before.fingerprint, o.image)
+                    .map(|named| format!(": run with {named} to use them"))
+                    .unwrap_or_default();
+                return Err(LabError::Controller(format!(
+                    "holds tables learned under another configuration than this run's ({}){theirs}",
+                    describe(&before, o.image)
+                )));
+            }
+            if !learned(&before) {
+                observer.notice("the controller's tables never learned");
+            }
+            runner.configure(o.with_keep(true))?;
+            kept_steps = Some(before.steps1);
+        }
+        Want::New => {
+            clear(runner, o, &before, observer)?;
+            runner.configure(o.with_keep(false))?;
+        }
+        Want::Image(bytes) => {
+            let guarded = learned(&before);
+            if guarded && !o.reset {
+                return Err(LabError::Controller(format!(
+                    "{}: pass --reset-tables to replace them with the checkpoint, or keep them",
+                    o.held(&before)
+                )));
+            }
+            if guarded {
+                observer.notice(&format!(
+                    "replacing the controller's learned tables ({}) with the checkpoint",
+                    describe(&before, o.image)
+                ));
+            }
+            write(runner, bytes, guarded)?;
+            runner.configure(o.with_keep(true))?;
+        }
+    }
+    Ok(Opened { before, kept_steps })
+}
+
+/// Makes way for new tables: nothing to do on tables that never learned; learned tables
+/// are refused unless the user allowed erasing them, then said and re-seeded through the
+/// guard (the session's configuration with `keep_tables = false` is in force afterwards).
+pub fn clear<P>(
+    runner: &mut Runner<P>,
+    o: &Opening,
+    before: &TablesStatus,
+    observer: &mut dyn Observer,
+) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    if !learned(before) {
+        return Ok(());
+    }
+    if !o.reset {
+        return Err(LabError::Controller(format!(
+            "{}: pass --reset-tables to erase them, or keep them (trn train --keep-tables trains them on)",
+            o.held(before)
+        )));
+    }
+    observer.notice(&format!(
+        "erasing the controller's learned tables ({})",
+        describe(before, o.image)
+    ));
+    reseed(runner, o.with_keep(false))
+}
+
+/// Re-seeds learned tables with `session` (`keep_tables = false`) through the guard: a nonce
+/// for the re-seed, then `ConfirmedSessionConfig` until echoed. A nonce refused as stale,
+/// used or wrong (one that crossed a repeat of the request) is asked for again.
+pub fn reseed<P>(runner: &mut Runner<P>, session: SessionConfig) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let mut last = None;
+    for _ in 0..4 {
+        let n = nonce(runner, GuardOp::Reseed)?;
+        let confirmed = ConfirmedSessionConfig {
+            config: session,
+            nonce: n.nonce,
+        };
+        match runner.acknowledge(confirmed.into(), session.into())? {
+            Ok(()) => return Ok(()),
+            Err(Refused::Guard(d)) if retry_with_new_nonce(d) => last = Some(Refused::Guard(d)),
+            Err(r) => {
+                return Err(LabError::Controller(
+                    r.describe("the re-seed of its learned tables"),
+                ))
+            }
+        }
+    }
+    Err(LabError::Controller(
+        last.map(|r| r.describe("the re-seed of its learned tables"))
+            .unwrap_or_default(),
+    ))
+}
