@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The compact build (i16 tables) against the f32 build, on the same seeds (issue 18).
+"""The compact build (i16 tables) against the f32 build, on the same seeds.
 
     compact.py table F32_REPORT COMPACT_REPORT      markdown table to stdout
     compact.py check F32_REPORT COMPACT_REPORT      fails when the compact build's measured

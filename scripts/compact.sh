@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The compact build (i16 fixed-point tables, `--features compact`: the firmware's 128 KiB
-# build) against the f32 build on the honest protocol (issue 18): the project preset trained
+# build) against the f32 build on the honest protocol: the project preset trained
 # and evaluated on seeds 100-109 (realistic plant) with i16 tables, paired seed by seed with
 # the f32 build's figures recorded by scripts/results.sh (docs/results/compare.json).
-#   bash scripts/compact.sh          writes docs/results/compact.json and compact.md (README)
+#   bash scripts/compact.sh          writes docs/results/compact.json and compact.md (docs/performance.md)
 #   bash scripts/compact.sh --resume the same, keeping the runs an interrupted call finished
 #   bash scripts/compact.sh --check  the test suite: fails when the compact build's measured
 #                                    error after the fixed budget is more than 5 % above the

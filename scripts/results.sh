@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates every table and picture of the README from the code, on seeds from 100 up
-# (tuning uses seeds 1-99 only), and rewrites the README's generated sections in place.
+# Regenerates every measured table and picture of the user docs from the code, on seeds from
+# 100 up (tuning uses seeds 1-99 only): the files of docs/results/ and the pictures, then the
+# generated sections of README.md and docs/*.md (scripts/readme_sections.py) in place.
 #   bash scripts/results.sh          the full set (about 25 minutes on 2 cores, estimated
 #                                    from the studies' measured 0.55-0.6x; 40 when they ran
 #                                    one run after another)
@@ -35,12 +36,12 @@ esac
 # presets and ablations, 10 seeds from 100
 "$trn" compare --seeds 10 --runs "$runs/compare" "${resume[@]}" --report "$res/compare.json" > "$res/compare.md"
 python3 scripts/bands.py record "$res/compare.json" "$res/bands.json"
-# the plant variants, 3 seeds from 100 (issue 14)
+# the plant variants, 3 seeds from 100 (docs/plant.md)
 "$trn" sweep --seeds 3 --out "$res/sweep" --runs "$runs/sweep" "${resume[@]}" > "$res/sweep.md"
-# the compact build (i16 tables) against the f32 build, seeds 100-109 (issue 18)
+# the compact build (i16 tables) against the f32 build, seeds 100-109 (docs/performance.md)
 bash scripts/compact.sh "${resume[@]}"
-# life-long learning under drift and wear, seed 100 (issue 17)
+# life-long learning under drift and wear, seed 100 (docs/results.md)
 "$trn" lifelong --seed 100 --out "$res/lifelong" --runs "$runs/lifelong" "${resume[@]}" > "$res/lifelong.md"
 mv "$res/lifelong/lifelong.png" docs/lifelong-seed100.png
-python3 scripts/readme_sections.py README.md "$res"
-echo "results: README.md, docs/train-seed100.png and $res/ regenerated"
+python3 scripts/readme_sections.py --results "$res"
+echo "results: $res/, the pictures and the generated sections of README.md and docs/*.md regenerated"

@@ -7,8 +7,10 @@ main_job() {
 }
 
 step main-job main_job
-# The README's headline figures: 3 seeds, each within mean +- 4 sd of the recorded 10 seeds.
+# The headline figures (docs/results.md): 3 seeds, each within mean +- 4 sd of the recorded 10 seeds.
 step results-bands bash scripts/results.sh --check
+# The docs' generated sections hold the result files of docs/results/ (a second, no build).
+step docs-sections python3 scripts/readme_sections.py --check
 # Studies beyond one machine, against the unsharded study on a tiny comparison: the SLURM
 # job array's shard arithmetic and its tasks merged (~15 s); cluster/ray_study.py's shards
 # as Ray tasks on a local Ray (installs Ray 2.60.0 into out/ray-venv on first use: about
@@ -22,7 +24,7 @@ step dbc-interop bash protocol/tools/check_dbc.sh
 step python-package bash scripts/python-package.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
 prune_if_low protocol/fuzz/target
-# Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan (issue 6).
+# Host-in-the-loop over real vcan: in a QEMU VM unless this kernel has vcan.
 step vcan-hil bash scripts/vcan/run.sh
 prune_if_low target/static
 # Cortex-M: the no_std crates cross-build (thumbv7em, thumbv6m); the firmware's budgets.

@@ -162,7 +162,8 @@ mod tests {
     }
 
     /// The variants as they were compiled in before the sweep became a study file:
-    /// `studies/sweep.toml` must make exactly these plants, so the README's figures stand.
+    /// `studies/sweep.toml` must make exactly these plants, so the recorded figures
+    /// (docs/plant.md) stand.
     #[allow(clippy::type_complexity)]
     fn before() -> Vec<(&'static str, Box<dyn Fn(&mut SimConfig)>)> {
         let real = SimConfig::realistic;

@@ -286,8 +286,8 @@ impl Default for SimConfig {
 impl SimConfig {
     /// The ideal plant: independent joints, a deterministic arm, a Prandtl-Ishlinskii loop
     /// whose asymmetry is an offset, no creep, Gaussian centroid noise only, no lens
-    /// distortion, no wear. The built-in default (`Default`), and what every figure of the
-    /// README up to the realistic plant's section was measured on.
+    /// distortion, no wear. The built-in default (`Default`) and the base of the plant sweep
+    /// (docs/plant.md); runs default to the realistic plant.
     pub fn ideal() -> SimConfig {
         SimConfig::default()
     }

@@ -1,9 +1,10 @@
 //! `trn compare`: the presets, ablations and baselines over seeds from 100 up (tuning never
 //! used them), on the honest protocol: deployment-style held-out targets, a fixed move
 //! budget, failures counted. The configurations are a study file, `studies/compare.toml`
-//! (built in; `--study FILE` another); the table is the README's, each cell the mean ± the
-//! standard deviation over the seeds with the worst seed beside it, and the per-target
-//! measured errors after the budget of every seed pooled into percentiles.
+//! (built in; `--study FILE` another); the table is docs/results.md's (recorded in
+//! docs/results/compare.md), each cell the mean ± the standard deviation over the seeds with
+//! the worst seed beside it, and the per-target measured errors after the budget of every
+//! seed pooled into percentiles.
 
 mod tables;
 
