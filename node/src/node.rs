@@ -4,15 +4,11 @@
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
 
-use trn_controller::checkpoint::Provenance;
-use trn_controller::presets::{self, Ablation, ImageSize, Preset};
-use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKind, Outcome, Task};
-use trn_controller::{Config, Law};
+use trn_controller::{Control, FineMoves, Task};
 use trn_protocol as proto;
 use trn_protocol::{
-    BusMode, CanFrame, CaptureKind, Encoder, Envelope, ErrorReport, GuardNonce, GuardOp, Heartbeat,
-    Message, Mode, ModeChange, NodeId, NodeState, PointStatus, Reassembler, SessionConfig,
-    TrialReport,
+    BusMode, CanFrame, Encoder, Envelope, ErrorReport, GuardNonce, Heartbeat, Message, Mode,
+    ModeChange, NodeId, NodeState, Reassembler, SessionConfig,
 };
 
 use crate::codes;
@@ -22,6 +18,9 @@ use crate::guard::{op_code, Guard};
 use crate::outbox::{push, send, FrameError, Outbox};
 pub use crate::stats::NodeStats;
 use crate::tables::{learned, TableState};
+
+mod session;
+mod trial;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PendingGrasp {
@@ -406,150 +405,9 @@ impl ControllerNode {
         }
     }
 
-    /// Applies a session's run parameters (SPEC.md 3.2): in `Idle` with no trial in progress,
-    /// a new configuration and tables seeded from `seed` (or, with `keep_tables`, a check that
-    /// the tables held were learned under this configuration); acknowledged by the echo to
-    /// `Broadcast`. A repeat of the configuration in force is acknowledged again without
-    /// re-seeding. Re-seeding tables that learned needs the guard's nonce (`nonce`, from a
-    /// `ConfirmedSessionConfig`; 0 from a plain one), unless the node allows unguarded
-    /// resets. A refusal on tables that learned leaves trials refused until a session is
-    /// accepted. Not inlined: the `Config` built here stays out of the callers' frames.
-    #[inline(never)]
-    fn on_session_config<C: Control + ?Sized>(
-        &mut self,
-        ctrl: &mut C,
-        c: &SessionConfig,
-        nonce: u32,
-        now_ms: u32,
-        out: &mut Outbox,
-    ) {
-        if self.session == Some(*c) {
-            self.session_required = false;
-            push(out, NodeId::Broadcast, (*c).into());
-            return;
-        }
-        let learned = learned(ctrl);
-        let refuse = |node: &mut Self, detail: u32, out: &mut Outbox| {
-            node.session_required |= learned;
-            error(out, codes::CONFIG_REJECTED, detail)
-        };
-        if self.mode != Mode::Idle || self.trial.is_some() {
-            return refuse(self, codes::CONFIG_NOT_IDLE, out);
-        }
-        // the codes were range-checked on decode (`Message::validate`)
-        let (Some(preset), Some(ablation), Some(law)) = (
-            Preset::from_code(c.preset),
-            Ablation::from_code(c.ablation),
-            Law::from_code(c.law),
-        ) else {
-            return refuse(self, codes::CONFIG_INVALID, out);
-        };
-        let image = ImageSize {
-            width: c.image_width,
-            height: c.image_height,
-        };
-        let cfg = Config {
-            law,
-            ..presets::configure(preset, ablation, image)
-        };
-        let rejected = |e: CtrlError| match e {
-            CtrlError::UnsupportedLaw => codes::CONFIG_UNSUPPORTED,
-            _ => codes::CONFIG_INVALID,
-        };
-        if c.keep_tables {
-            if self.tables_fingerprint(ctrl) != cfg.fingerprint() {
-                return refuse(self, codes::CONFIG_MISMATCH, out);
-            }
-            if *ctrl.config() != cfg {
-                if let Err(e) = ctrl.set_config(cfg) {
-                    return refuse(self, rejected(e), out);
-                }
-            }
-        } else {
-            if learned
-                && !self.cfg.allow_unguarded_reset
-                && !self.guard_allows(GuardOp::Reseed, nonce, now_ms, out)
-            {
-                self.session_required = true;
-                return;
-            }
-            if let Err(e) = ctrl.set_config(cfg) {
-                return refuse(self, rejected(e), out);
-            }
-            ctrl.init_random(c.seed);
-            self.tables_changed(ctrl, false);
-            self.tables.fingerprint = Some(cfg.fingerprint());
-        }
-        self.tables.provenance = Provenance {
-            preset: c.preset,
-            ablation: c.ablation,
-        };
-        self.session = Some(*c);
-        self.session_required = false;
-        self.forget_trials();
-        self.bus_mode = Some(if c.fd { BusMode::Fd } else { BusMode::Classic });
-        push(out, NodeId::Broadcast, (*c).into());
-    }
-
     /// The session configuration in force, if the runner sent one.
     pub fn session(&self) -> Option<&SessionConfig> {
         self.session.as_ref()
-    }
-
-    /// True (and handled) when `trial` is the trial in progress (ignored: it is being
-    /// served), the trial that ended last (its final messages are sent again, once per repeat
-    /// of its start: `completes` is true for the message that completes a start, a grasp's
-    /// `Stage2Target` or another trial's target), or older than the newest trial of the
-    /// session (a late duplicate: ignored).
-    fn repeated(&mut self, trial: u32, completes: bool, out: &mut Outbox) -> bool {
-        if self.trial == Some(trial) {
-            self.stats.repeated_targets += 1;
-            return true;
-        }
-        if self.last_trial == Some(trial) {
-            self.stats.repeated_targets += 1;
-            if completes || !self.last_grasp {
-                for env in &self.last_final {
-                    push(out, env.node, env.msg);
-                }
-            }
-            return true;
-        }
-        // the newest trial started is the one in progress, or else the one that ended last
-        if let Some(newest) = self.trial.or(self.last_trial) {
-            if newest.wrapping_sub(trial) < 1 << 31 {
-                self.stats.ignored += 1;
-                return true;
-            }
-        }
-        false
-    }
-
-    /// A session begins or ends: no trial of it is remembered (a new session numbers its
-    /// trials afresh).
-    fn forget_trials(&mut self) {
-        if self.trial.is_none() {
-            self.last_trial = None;
-            self.last_final.clear();
-        }
-    }
-
-    /// True (and reported with `out`) when trials are refused: the tables learned and no
-    /// session is in force.
-    fn refuses_trial<C: Control + ?Sized>(
-        &mut self,
-        ctrl: &mut C,
-        trial: u32,
-        out: Option<&mut Outbox>,
-    ) -> bool {
-        if !(self.session_required && learned(ctrl)) {
-            return false;
-        }
-        match out {
-            Some(out) => error(out, codes::SESSION_REQUIRED, trial),
-            None => self.stats.ignored += 1,
-        }
-        true
     }
 
     /// True after a `ModeChange{Idle}`: the runner has ended the session (a host process
@@ -558,165 +416,8 @@ impl ControllerNode {
         self.idle_requested
     }
 
-    /// Whether a target that asks to `learn` may: never in `Mature` mode, where the tables
-    /// are frozen whatever a target says.
-    fn learns(&self, learn: bool) -> bool {
-        learn && self.mode != Mode::Mature
-    }
-
     /// The operating mode last set by a `ModeChange`.
     pub fn mode(&self) -> Mode {
         self.mode
-    }
-
-    fn start<C: Control + ?Sized>(
-        &mut self,
-        ctrl: &mut C,
-        trial: u32,
-        task: Task,
-        fine: FineMoves,
-        now_ms: u32,
-        out: &mut Outbox,
-    ) {
-        if ctrl.busy() {
-            // a new target pre-empts a trial that is still running (its runner gave up)
-            ctrl.abort();
-            self.stats.aborted += 1;
-        }
-        let learns = match task {
-            Task::Stage1 {
-                learn, supervised, ..
-            } => learn || supervised.is_some(),
-            Task::Stage2 { learn, .. } | Task::Grasp { learn, .. } => learn,
-        };
-        if learns {
-            // the tables change: a save in progress starts again after the trial
-            self.tables_changed(ctrl, true);
-        }
-        self.trial = Some(trial);
-        self.trial_learns = learns;
-        self.last_grasp = matches!(task, Task::Grasp { .. });
-        self.pending = Pending::None;
-        self.stats.trials += 1;
-        match ctrl.begin_with(task, fine) {
-            Ok(cmd) => self.execute(cmd, now_ms, out),
-            Err(e) => self.reject(ctrl, e, out),
-        }
-    }
-
-    fn on_observation<C: Control + ?Sized>(
-        &mut self,
-        ctrl: &mut C,
-        o: &proto::Observation,
-        now_ms: u32,
-        out: &mut Outbox,
-    ) {
-        if !self.pending.takes_observation(o.seq, o.what) {
-            self.stats.stale_answers += 1;
-            return;
-        }
-        let used = match o.what {
-            CaptureKind::GripperLights => 4,
-            CaptureKind::GripperCentre => 2,
-        };
-        // an estimate (a light hidden from one camera, placed by the camera processor from
-        // what it sees and the markers' last position) is good enough to move on with, not
-        // to learn from: the tables would take its error for the arm's
-        let usable = |s: PointStatus| {
-            s == PointStatus::Valid || (s == PointStatus::Estimated && !self.trial_learns)
-        };
-        for (i, p) in o.points[..used].iter().enumerate() {
-            if !usable(p.status) {
-                let detail = ((i as u32) << 8) | p.status as u32;
-                error(out, codes::INVALID_OBSERVATION, detail);
-                self.abort(ctrl, out);
-                return;
-            }
-        }
-        if o.points[..used]
-            .iter()
-            .any(|p| p.status == PointStatus::Estimated)
-        {
-            self.stats.estimated = self.stats.estimated.saturating_add(1);
-        }
-        self.pending = Pending::None;
-        match ctrl.observe(crate::exchange::reading(o)) {
-            Ok(cmd) => self.execute(cmd, now_ms, out),
-            Err(e) => self.reject(ctrl, e, out),
-        }
-    }
-
-    fn execute(&mut self, cmd: Command, now_ms: u32, out: &mut Outbox) {
-        match cmd {
-            Command::Move {
-                pressures,
-                joints,
-                observe,
-            } => {
-                self.seq = self.seq.wrapping_add(1);
-                // the controller clamps its pressures to [-1, 1] and never emits NaN
-                let raw = pressures.map(|p| proto::pressure_to_raw(p).unwrap_or(2048));
-                let what = match observe {
-                    ObserveKind::Lights => CaptureKind::GripperLights,
-                    ObserveKind::Centre => CaptureKind::GripperCentre,
-                };
-                self.pending = Pending::start_move(out, self.seq, raw, joints, what, now_ms);
-            }
-            Command::Done(outcome) => self.finish(outcome, now_ms, out),
-        }
-    }
-
-    /// Remembers the messages that end `trial`, to send them again if the runner repeats it.
-    fn end_trial(&mut self, out: &Outbox, from: usize) {
-        self.last_trial = self.trial.take();
-        self.last_final.clear();
-        for env in out.iter().skip(from).take(FINAL) {
-            let _ = self.last_final.push(*env);
-        }
-    }
-
-    fn finish(&mut self, o: Outcome, now_ms: u32, out: &mut Outbox) {
-        let trial = self.trial.unwrap_or(0);
-        let from = out.len();
-        self.pending = Pending::None;
-        for (stage, s) in [(1u8, o.stage1), (2u8, o.stage2)] {
-            if let Some(s) = s {
-                let stage = if stage == 1 && s.supervised { 0 } else { stage };
-                let report = TrialReport {
-                    trial,
-                    stage,
-                    coarse_error_px: s.coarse_error,
-                    final_error_px: s.final_error,
-                    fine_moves: s.fine_moves,
-                    cap_hit: s.cap_hit,
-                };
-                push(out, NodeId::Controller, report.into());
-            }
-        }
-        if o.close_gripper {
-            self.pending = Pending::start_close(out, now_ms);
-        }
-        self.end_trial(out, from);
-    }
-
-    fn reject<C: Control + ?Sized>(&mut self, ctrl: &mut C, e: CtrlError, out: &mut Outbox) {
-        error(
-            out,
-            codes::CONTROLLER_ERROR,
-            codes::controller_error_code(&e),
-        );
-        self.abort(ctrl, out);
-    }
-
-    /// Ends the trial in progress without a result: the runner sees `TRIAL_ABORTED` with
-    /// the trial number, after the report of the reason.
-    fn abort<C: Control + ?Sized>(&mut self, ctrl: &mut C, out: &mut Outbox) {
-        ctrl.abort();
-        let from = out.len().saturating_sub(1);
-        let trial = self.trial.unwrap_or(0);
-        error(out, codes::TRIAL_ABORTED, trial);
-        self.pending = Pending::None;
-        self.stats.aborted += 1;
-        self.end_trial(out, from);
     }
 }

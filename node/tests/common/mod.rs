@@ -1,6 +1,9 @@
 //! A node with learned tables and a store on a simulated flash, a scripted plant that answers
-//! its requests, and helpers to send it messages and read what it answers.
+//! its requests, and helpers to send it messages and read what it answers; in [`trial`], a
+//! plain node (no store) and the messages of a trial.
 #![allow(dead_code)]
+
+pub mod trial;
 
 use trn_controller::checkpoint::{self, Provenance};
 use trn_controller::WithStore;

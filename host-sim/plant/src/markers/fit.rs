@@ -1,0 +1,177 @@
+//! The fit of the marker body to the readings a capture saw: a Levenberg-Marquardt fit in
+//! the body's five local coordinates, with the trial's track as a weak prior or without,
+//! and the standard error of a hidden marker placed from the body the readings determine.
+
+use nalgebra::{SMatrix, SVector};
+
+use super::{Body, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
+use crate::camera::Camera;
+use crate::vec3::sub;
+
+/// One valid reading: marker (0 p, 1 q, 2 c), camera, pixel.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Reading {
+    pub(super) marker: usize,
+    pub(super) cam: usize,
+    pub(super) uv: (f64, f64),
+}
+
+/// A fit of the body to readings, with a track as prior or without.
+pub(super) struct Problem<'a> {
+    pub(super) cams: &'a [Camera; 2],
+    pub(super) d: f64,
+    pub(super) sigma: f64,
+    pub(super) readings: Vec<Reading>,
+    pub(super) prior: Option<Track>,
+}
+
+impl Problem<'_> {
+    /// The residuals in noise units (readings, then the prior's rows); `None` when a marker
+    /// leaves an image.
+    fn residuals(&self, b: &Body) -> Option<Vec<f64>> {
+        let m = b.markers(self.d);
+        let mut r = Vec::with_capacity(2 * self.readings.len() + 6);
+        for s in &self.readings {
+            let (u, v) = self.cams[s.cam].project(&m[s.marker])?;
+            r.extend([(u - s.uv.0) / self.sigma, (v - s.uv.1) / self.sigma]);
+        }
+        if let Some(t) = &self.prior {
+            r.extend(sub(&b.centre, &t.centre).map(|x| x / PRIOR_MOVE_MM));
+            if let Some(n) = &t.normal {
+                r.extend(sub(&b.normal, n).map(|x| x / PRIOR_TURN_RAD));
+            }
+        }
+        Some(r)
+    }
+
+    /// Residuals and their Jacobian in the body's local coordinates.
+    fn linearised(&self, b: &Body) -> Option<(Vec<f64>, Vec<[f64; 5]>)> {
+        const H: f64 = 1e-4;
+        let r = self.residuals(b)?;
+        let mut jac = vec![[0.0; 5]; r.len()];
+        for k in 0..5 {
+            let mut x = [0.0; 5];
+            x[k] = H;
+            let rk = self.residuals(&b.moved(&x))?;
+            for (row, (a, b)) in jac.iter_mut().zip(rk.iter().zip(&r)) {
+                row[k] = (a - b) / H;
+            }
+        }
+        Some((r, jac))
+    }
+
+    /// Levenberg-Marquardt from `start`; the body and its cost.
+    fn solve(&self, start: Body) -> Option<(Body, f64)> {
+        let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+        let mut b = start;
+        let mut c = cost(&self.residuals(&b)?);
+        let mut lambda = 1e-3;
+        for _ in 0..40 {
+            let (r, jac) = self.linearised(&b)?;
+            let jtj = normal_matrix(&jac);
+            let jtr =
+                SVector::<f64, 5>::from_fn(|a, _| jac.iter().zip(&r).map(|(j, r)| j[a] * r).sum());
+            let mut improved = false;
+            for _ in 0..8 {
+                let damped = jtj
+                    + SMatrix::<f64, 5, 5>::from_diagonal(
+                        &(jtj.diagonal() * lambda + SVector::<f64, 5>::repeat(1e-9)),
+                    );
+                let Some(step) = damped.lu().solve(&jtr) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let x: [f64; 5] = core::array::from_fn(|k| -step[k]);
+                let next = b.moved(&x);
+                match self.residuals(&next) {
+                    Some(rn) if cost(&rn) < c => {
+                        (b, c) = (next, cost(&rn));
+                        lambda = (lambda / 3.0).max(1e-9);
+                        improved = true;
+                        break;
+                    }
+                    _ => lambda *= 10.0,
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+        Some((b, c))
+    }
+
+    /// The best body over `starts`.
+    pub(super) fn best(&self, starts: &[Body]) -> Option<Body> {
+        self.all(starts)
+            .into_iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(b, _)| b)
+    }
+
+    /// The body each start leads to, with its cost.
+    pub(super) fn all(&self, starts: &[Body]) -> Vec<(Body, f64)> {
+        starts.iter().filter_map(|s| self.solve(*s)).collect()
+    }
+
+    /// The largest reading residual of `b` (pixels).
+    pub(super) fn worst_px(&self, b: &Body) -> Option<f64> {
+        let r = self.residuals(b)?;
+        let n = 2 * self.readings.len();
+        Some(r[..n].iter().fold(0.0f64, |m, v| m.max(v.abs())) * self.sigma)
+    }
+
+    /// The standard error (pixels, the larger axis) of marker `marker` seen by `cam` for
+    /// the body `b` fitted to the readings alone; infinite when they do not determine it.
+    pub(super) fn fill_error_px(&self, b: &Body, marker: usize, cam: usize) -> f64 {
+        const H: f64 = 1e-4;
+        let data = Problem {
+            prior: None,
+            readings: self.readings.clone(),
+            ..*self
+        };
+        // six coordinates at least for five unknowns, and no direction the readings do not
+        // see: a plain inverse of a singular J^T J returns rounding noise, small numbers
+        // that look like a determined fill
+        if self.readings.len() < 3 {
+            return f64::INFINITY;
+        }
+        let Some((_, jac)) = data.linearised(b) else {
+            return f64::INFINITY;
+        };
+        let eig = normal_matrix(&jac).symmetric_eigen();
+        let largest = eig.eigenvalues.max();
+        if largest.is_nan() || largest <= 0.0 || eig.eigenvalues.min() <= 1e-9 * largest {
+            return f64::INFINITY;
+        }
+        let inverse = SMatrix::<f64, 5, 5>::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l));
+        let cov = eig.eigenvectors * inverse * eig.eigenvectors.transpose();
+        let project = |b: &Body| self.cams[cam].project(&b.markers(self.d)[marker]);
+        let Some(at) = project(b) else {
+            return f64::INFINITY;
+        };
+        let mut jf = SMatrix::<f64, 2, 5>::zeros();
+        for k in 0..5 {
+            let mut x = [0.0; 5];
+            x[k] = H;
+            let Some(uv) = project(&b.moved(&x)) else {
+                return f64::INFINITY;
+            };
+            jf[(0, k)] = (uv.0 - at.0) / H;
+            jf[(1, k)] = (uv.1 - at.1) / H;
+        }
+        // the residuals are in noise units: the covariance is sigma^2 (J^T J)^-1
+        let c = jf * cov * jf.transpose() * (self.sigma * self.sigma);
+        let (a, bb, d) = (c[(0, 0)], c[(0, 1)], c[(1, 1)]);
+        let largest = 0.5 * (a + d) + (0.25 * (a - d) * (a - d) + bb * bb).sqrt();
+        if largest.is_finite() && largest >= 0.0 {
+            largest.sqrt()
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// `J^T J` of rows `jac`.
+fn normal_matrix(jac: &[[f64; 5]]) -> SMatrix<f64, 5, 5> {
+    SMatrix::<f64, 5, 5>::from_fn(|a, b| jac.iter().map(|j| j[a] * j[b]).sum())
+}
