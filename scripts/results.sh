@@ -2,9 +2,7 @@
 # Regenerates every measured table and picture of the user docs from the code, on seeds from
 # 100 up (tuning uses seeds 1-99 only): the files of docs/results/ and the pictures, then the
 # generated sections of README.md and docs/*.md (scripts/readme_sections.py) in place.
-#   bash scripts/results.sh          the full set (about 25 minutes on 2 cores, estimated
-#                                    from the studies' measured 0.55-0.6x; 40 when they ran
-#                                    one run after another)
+#   bash scripts/results.sh          the full set (about 35 minutes on 2 cores)
 #   bash scripts/results.sh --resume the same, keeping the runs an interrupted call finished
 #   bash scripts/results.sh --check  the test suite's shortened check: 3 seeds of the project
 #                                    preset; fails when a headline figure leaves the band
@@ -43,5 +41,10 @@ bash scripts/compact.sh "${resume[@]}"
 # life-long learning under drift and wear, seed 100 (docs/results.md)
 "$trn" lifelong --seed 100 --out "$res/lifelong" --runs "$runs/lifelong" "${resume[@]}" > "$res/lifelong.md"
 mv "$res/lifelong/lifelong.png" docs/lifelong-seed100.png
+# the same on the realistic plant with drift and wear, 3,000 trials (docs/results.md)
+"$trn" lifelong --seed 100 --config realistic-aging --trials 3000 --only project,lifelong,broyden \
+    --out "$res/lifelong-realistic-aging" --runs "$runs/lifelong-realistic-aging" "${resume[@]}" \
+    > "$res/lifelong-realistic-aging.md"
+mv "$res/lifelong-realistic-aging/lifelong.png" docs/lifelong-realistic-aging-seed100.png
 python3 scripts/readme_sections.py --results "$res"
 echo "results: $res/, the pictures and the generated sections of README.md and docs/*.md regenerated"

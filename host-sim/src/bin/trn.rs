@@ -136,6 +136,12 @@ fn lifelong_run(
     interrupts: &Interrupts,
 ) -> Result<()> {
     let study = spec.study()?;
+    std::fs::create_dir_all(&spec.out).map_err(|source| {
+        CliError::from(trn_lab::LabError::Io {
+            path: spec.out.clone(),
+            source,
+        })
+    })?;
     let json = spec.out.join("lifelong.json");
     let done = studies::run(
         &study,

@@ -89,6 +89,10 @@ pub struct SeedFigures {
     pub training_trials: usize,
     /// The measured combined error after the budget over this seed's held-out targets.
     pub measured_after_budget_by_target_px: Tail,
+    /// The 95th percentile of the measured combined error after the budget over this
+    /// seed's held-out targets, over the noise floor (the tail the seed's mean hides).
+    #[serde(default)]
+    pub measured_p95_over_floor: f32,
     /// Wall time (s).
     pub wall_s: f64,
 }
@@ -118,6 +122,10 @@ impl SeedFigures {
             ),
             training_trials: r.trials,
             measured_after_budget_by_target_px: Tail::of(&d.combined_measured_by_target_px),
+            measured_p95_over_floor: d
+                .combined_measured_p95_px
+                .last()
+                .map_or(f32::NAN, |p| p / d.noise_floor_px),
             wall_s: r.wall_s,
         }
     }
@@ -143,6 +151,9 @@ pub struct Summary {
     /// The measured combined error after the budget over every held-out target of every
     /// seed (the tail of the distribution, not the seeds' means).
     pub measured_after_budget_by_target_px: Tail,
+    /// Each seed's 95th percentile of the measured error after the budget over its noise
+    /// floor (the worst is the highest).
+    pub measured_p95_over_floor: Spread,
     /// Failed trials over every seed.
     pub failed_trials: usize,
 }
@@ -203,6 +214,7 @@ impl Row {
             sim_s_per_target_stop_rule: higher(&|s| s.sim_s_per_target_stop_rule),
             grasp_success: Spread::of(&col(&|s| s.grasp_success), Worse::Lower),
             measured_after_budget_by_target_px: Tail::of(&pooled),
+            measured_p95_over_floor: higher(&|s| s.measured_p95_over_floor),
             failed_trials: seeds.iter().map(|s| s.failed_trials).sum(),
         };
         Row {

@@ -9,8 +9,8 @@ use crate::summary::px;
 /// and, in brackets, the worst seed; the last column the per-target tail.
 pub fn table(rows: &[Row]) -> String {
     let mut out = String::new();
-    out.push_str("| configuration | training trials | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | simulated s per target, stop rule | grasp success % | failed trials | measured after 6 per target: p50 / p90 / max px |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| configuration | training trials | combined true px: coarse | after 1 fine | after 2 fine | after 6 fine | measured after 6 / noise floor px | fine moves to 2 px | fine moves, stop rule | simulated s per target, stop rule | grasp success % | failed trials | measured after 6 per target: p50 / p90 / max px | measured after 6, each seed's p95 / its floor |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let s = &r.summary;
         let at = |m: usize| s.combined_true_px.get(m).map_or("n/a".into(), Spread::cell);
@@ -20,7 +20,7 @@ pub fn table(rows: &[Row]) -> String {
             *v *= 100.0;
         }
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.name,
             r.seeds.first().map_or(0, |s| s.training_trials),
             at(0),
@@ -35,6 +35,7 @@ pub fn table(rows: &[Row]) -> String {
             grasp.cell(),
             s.failed_trials,
             s.measured_after_budget_by_target_px.cell(),
+            s.measured_p95_over_floor.cell(),
         ));
     }
     if let Some(oracle) = rows.iter().find(|r| r.law == "oracle") {

@@ -137,6 +137,7 @@ fn row(name: &str, law: &str, px_: f32, moves: f32, grasps: f32) -> Row {
             sim_s_per_target_stop_rule: hi(moves),
             grasp_success: Spread::of(&[grasps], Worse::Lower),
             measured_after_budget_by_target_px: Tail::of(&[px_]),
+            measured_p95_over_floor: hi(px_),
             failed_trials: 0,
         },
     }
