@@ -261,6 +261,10 @@ impl Observer for Both<'_> {
         self.0.message(text);
         self.1.message(text);
     }
+    fn notice(&mut self, text: &str) {
+        self.0.notice(text);
+        self.1.notice(text);
+    }
     fn finish(&mut self) {
         self.0.finish();
         self.1.finish();

@@ -149,6 +149,9 @@ impl Observer for TrialRows<'_> {
     fn message(&mut self, text: &str) {
         self.inner.message(text)
     }
+    fn notice(&mut self, text: &str) {
+        self.inner.notice(text)
+    }
     fn finish(&mut self) {
         self.inner.finish()
     }
@@ -184,5 +187,52 @@ mod tests {
         assert!(r.ends_with("target not visible from the twin arm"), "{r}");
         assert_eq!(r.split(',').count(), columns, "{r}");
         assert_eq!(text("a, \"b\""), "\"a, \"\"b\"\"\"");
+    }
+
+    /// Everything the runner tells the CSV's observer reaches the caller's: a notice (what
+    /// `trn` says before it erases learned tables) lost here was silent in every run with
+    /// the CSV observer in the chain.
+    #[test]
+    fn every_call_reaches_the_callers_observer() {
+        #[derive(Default)]
+        struct Heard(Vec<String>);
+        impl Observer for Heard {
+            fn start(&mut self, trials: u64) {
+                self.0.push(format!("start {trials}"));
+            }
+            fn phase(&mut self, name: &str) {
+                self.0.push(format!("phase {name}"));
+            }
+            fn message(&mut self, text: &str) {
+                self.0.push(format!("message {text}"));
+            }
+            fn notice(&mut self, text: &str) {
+                self.0.push(format!("notice {text}"));
+            }
+            fn finish(&mut self) {
+                self.0.push("finish".into());
+            }
+            fn stop_requested(&self) -> bool {
+                true
+            }
+        }
+        let mut heard = Heard::default();
+        let mut rows = TrialRows::new(&mut heard, false);
+        rows.start(3);
+        rows.phase("training");
+        rows.message("m");
+        rows.notice("erasing");
+        rows.finish();
+        assert!(rows.stop_requested());
+        assert_eq!(
+            heard.0,
+            [
+                "start 3",
+                "phase training",
+                "message m",
+                "notice erasing",
+                "finish"
+            ]
+        );
     }
 }
