@@ -174,7 +174,7 @@ impl<F: NorFlash> FlashStore<F> {
     };
 
     /// The smallest slot size that holds a header and the largest checkpoint on this flash.
-    pub fn slot_size_needed() -> u32 {
+    pub const fn slot_size_needed() -> u32 {
         let needed = Self::IMAGE_AT + checkpoint::MAX_SIZE as u32;
         needed.div_ceil(F::ERASE_SIZE as u32) * F::ERASE_SIZE as u32
     }

@@ -3,7 +3,8 @@
 
 use embassy_futures::select::{select, Either};
 use embassy_time::{Duration, Instant, Timer};
-use trn_controller::Controller;
+use trn_controller::persist::StoredCopy;
+use trn_controller::Control;
 use trn_node::{ControllerNode, NodeConfig};
 use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
 
@@ -21,13 +22,27 @@ pub struct NodeState {
 
 impl NodeState {
     /// A node in mode `Idle` with the firmware's timing ([`NodeConfig::DEFAULT`]: heartbeats
-    /// every 100 ms, a request repeated up to 8 times, 200 ms apart).
+    /// every 100 ms, a request repeated up to 8 times, 200 ms apart; no saves by learning
+    /// steps).
     pub const fn new() -> Self {
+        Self::with_config(NodeConfig::DEFAULT)
+    }
+
+    /// A node in mode `Idle` with `cfg` (a board with a flash store sets
+    /// `save_every_steps` from its flash's endurance).
+    pub const fn with_config(cfg: NodeConfig) -> Self {
         NodeState {
-            node: ControllerNode::new(NodeConfig::DEFAULT),
+            node: ControllerNode::new(cfg),
             enc: Encoder::new(BusMode::Classic),
             rx: Reassembler::new(DEFAULT_STALE_MS),
         }
+    }
+
+    /// Tells the node what the board restored at boot (`None`: nothing): it announces it
+    /// with `TablesStatus{Restored | NotRestored}` at its first turn
+    /// ([`ControllerNode::tables_restored`]). Call it once, before [`run`].
+    pub fn tables_restored<C: Control + ?Sized>(&mut self, ctrl: &mut C, copy: Option<StoredCopy>) {
+        self.node.tables_restored(ctrl, copy);
     }
 }
 
@@ -60,9 +75,14 @@ fn instant_of(at_ms: u32) -> Instant {
 /// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
 /// the request it waits on). Port errors (bus errors, a full transmit buffer) are logged and
 /// counted; the node's own repeats recover what they cost.
-pub async fn run<const TX: usize, const RX: usize>(
+///
+/// `ctrl` is the controller (`&mut Controller`: tables in RAM only) or the controller with
+/// its flash store (`trn_controller::WithStore`): the node then saves the tables on a
+/// `StoreCommand`, on entering `Mature` and every `NodeConfig::save_every_steps` learning
+/// steps, a step of the save per turn (its turns come at once while a save runs).
+pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     can: Fdcan<TX, RX>,
-    ctrl: &mut Controller,
+    ctrl: &mut C,
     state: &mut NodeState,
 ) -> ! {
     let NodeState { node, enc, rx } = state;

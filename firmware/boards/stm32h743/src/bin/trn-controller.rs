@@ -2,6 +2,10 @@
 //! AXI SRAM, FDCAN1 on PD0 (RX) / PD1 (TX) to a CAN transceiver, CAN 2.0 or CAN FD as the
 //! session asks. 400 MHz from the ST-LINK's 8 MHz clock (HSE bypass), FDCAN kernel clock
 //! 80 MHz (PLL1 Q), caches on. Logs over RTT (defmt).
+//!
+//! The learned tables are kept in the part's own flash ([`store`]): the newest intact copy is
+//! restored at boot and announced; the node saves on a `StoreCommand`, on entering `Mature`
+//! and every [`SAVE_EVERY_STEPS`] learning steps.
 #![no_std]
 #![no_main]
 
@@ -13,8 +17,10 @@ use embassy_stm32::time::Hertz;
 use embassy_stm32::{bind_interrupts, rcc};
 use panic_probe as _;
 use static_cell::ConstStaticCell;
-use trn_controller::Controller;
-use trn_fdcan_node::{bitrate, KernelClock, NodeState};
+use trn_controller::{Controller, WithStore};
+use trn_fdcan_node::{bitrate, KernelClock, NodeConfig, NodeState};
+use trn_store::policy::{steps_between_saves, Endurance};
+use trn_store::RestoreError;
 
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
@@ -31,9 +37,129 @@ const TX_FRAMES: usize = 32;
 
 /// Both networks, zeroed (in `.bss`) until a `SessionConfig` configures and seeds them.
 static CONTROLLER: ConstStaticCell<Controller> = ConstStaticCell::new(Controller::new_zeroed());
-static NODE: ConstStaticCell<NodeState> = ConstStaticCell::new(NodeState::new());
+static NODE: ConstStaticCell<NodeState> =
+    ConstStaticCell::new(NodeState::with_config(NodeConfig {
+        save_every_steps: SAVE_EVERY_STEPS,
+        ..NodeConfig::DEFAULT
+    }));
 static RX_BUFFER: ConstStaticCell<RxFdBuf<RX_FRAMES>> = ConstStaticCell::new(RxFdBuf::new());
 static TX_BUFFER: ConstStaticCell<TxFdBuf<TX_FRAMES>> = ConstStaticCell::new(TxFdBuf::new());
+
+/// Learning steps between two saves by steps (2,887): what the H7's flash (10,000 erase
+/// cycles per sector) allows for ten years of 5,000 learning steps and one other save a day
+/// (`trn_store::policy`).
+const SAVE_EVERY_STEPS: u32 = steps_between_saves(&Endurance {
+    erase_cycles: 10_000,
+    years: 10,
+    steps_per_day: 5_000,
+    other_saves_per_day: 1,
+});
+
+/// The store of the learned tables in the flash's last 512 KiB.
+mod store {
+    use cortex_m::peripheral::SCB;
+    use embassy_stm32::flash::{Blocking, Error, Flash, FLASH_BASE, FLASH_SIZE};
+    use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
+    use trn_store::FlashStore;
+
+    /// Embassy's blocking driver of the whole flash (offsets from 0x0800_0000; sectors of
+    /// 128 KiB, programmed 32 bytes at a time) with the data cache kept coherent: the flash is
+    /// read through the D-cache (write-through), so the lines of what an erase or a program
+    /// changed are invalidated after it (a stale line would show a header that is gone).
+    pub struct CoherentFlash {
+        flash: Flash<'static, Blocking>,
+        /// `None` when the caches were left off.
+        scb: Option<SCB>,
+    }
+
+    impl CoherentFlash {
+        pub fn new(flash: Flash<'static, Blocking>, scb: Option<SCB>) -> Self {
+            CoherentFlash { flash, scb }
+        }
+
+        fn invalidate(&mut self, offset: u32, len: usize) {
+            if let Some(scb) = self.scb.as_mut() {
+                // SAFETY: the lines are the store's flash, which holds no variable and is
+                // write-through cached: no line there is dirty, nothing is lost
+                unsafe { scb.invalidate_dcache_by_address(FLASH_BASE + offset as usize, len) }
+            }
+        }
+    }
+
+    impl ErrorType for CoherentFlash {
+        type Error = Error;
+    }
+
+    impl ReadNorFlash for CoherentFlash {
+        const READ_SIZE: usize = <Flash<'static, Blocking> as ReadNorFlash>::READ_SIZE;
+
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Error> {
+            self.flash.read(offset, bytes)
+        }
+
+        fn capacity(&self) -> usize {
+            self.flash.capacity()
+        }
+    }
+
+    impl NorFlash for CoherentFlash {
+        const WRITE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::WRITE_SIZE;
+        const ERASE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::ERASE_SIZE;
+
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Error> {
+            let done = self.flash.write(offset, bytes);
+            self.invalidate(offset, bytes.len());
+            done
+        }
+
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), Error> {
+            let done = self.flash.erase(from, to);
+            self.invalidate(from, to.saturating_sub(from) as usize);
+            done
+        }
+    }
+
+    /// The store of the tables.
+    pub type Store = FlashStore<CoherentFlash>;
+
+    /// A slot: the header and the largest checkpoint, in whole sectors (2 x 128 KiB).
+    pub const SLOT: u32 = Store::slot_size_needed();
+
+    /// The store's first byte (an offset in the flash): the two slots end the flash
+    /// (0x0818_0000, bank 2's sectors 4-7), where memory.x ends the image's FLASH.
+    pub const STORE_AT: u32 = FLASH_SIZE as u32 - 2 * SLOT;
+
+    extern "C" {
+        /// memory.x: the first byte past the image's FLASH region.
+        static __trn_store: u8;
+    }
+
+    /// True when the link ended the image's flash where the store begins.
+    pub fn linked_apart() -> bool {
+        core::ptr::addr_of!(__trn_store) as usize == FLASH_BASE + STORE_AT as usize
+    }
+}
+
+/// What a boot that restored nothing logs (as the host's `board::restore_problem`).
+fn restore_problem(e: &RestoreError) {
+    match e {
+        RestoreError::NothingStored => defmt::info!("no tables stored: the tables start zeroed"),
+        RestoreError::AllCorrupt => {
+            defmt::warn!("no intact copy of the tables is stored: the tables start zeroed")
+        }
+        RestoreError::Format { found } => defmt::warn!(
+            "the stored tables are in store format {}, which this build does not read",
+            found
+        ),
+        RestoreError::Image(_) => defmt::warn!("the stored tables are refused (checkpoint)"),
+        RestoreError::Fingerprint { .. } | RestoreError::Busy => {
+            defmt::warn!("the stored tables could not be restored")
+        }
+        RestoreError::Flash(code) => {
+            defmt::warn!("the stored tables could not be read (flash error {})", code)
+        }
+    }
+}
 
 /// 400 MHz system clock from HSE (NUCLEO: the ST-LINK's 8 MHz MCO, bypass), AHB 200 MHz,
 /// APBs 100 MHz, FDCAN from PLL1 Q at 80 MHz.
@@ -68,12 +194,48 @@ fn clocks() -> embassy_stm32::Config {
 async fn main(_spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
     // the tables are read from AXI SRAM: with the caches on (no DMA touches that memory)
-    if let Some(mut core) = cortex_m::Peripherals::take() {
+    let scb = if let Some(mut core) = cortex_m::Peripherals::take() {
         core.SCB.enable_icache();
         core.SCB.enable_dcache(&mut core.CPUID);
+        Some(core.SCB)
     } else {
         defmt::warn!("the core peripherals were taken: caches left off (the steps run slower)");
+        None
+    };
+    if !store::linked_apart() {
+        defmt::error!(
+            "the image's flash does not end where the tables' store begins (memory.x): not started"
+        );
+        return;
     }
+    let flash = store::CoherentFlash::new(embassy_stm32::flash::Flash::new_blocking(p.FLASH), scb);
+    let Ok(store) = store::Store::new(flash, store::STORE_AT, store::SLOT) else {
+        defmt::error!("the tables' store does not fit its flash region: not started");
+        return;
+    };
+    let mut board = WithStore {
+        ctrl: CONTROLLER.take(),
+        store,
+    };
+    let node = NODE.take();
+    // the newest intact copy, announced by the node at its first turn
+    let restored = match board.store.restore(board.ctrl, None) {
+        Ok(copy) => {
+            defmt::info!(
+                "tables restored from flash: copy {}, {} + {} learning steps, {} B",
+                copy.sequence,
+                copy.steps.0,
+                copy.steps.1,
+                copy.len
+            );
+            Some(copy)
+        }
+        Err(e) => {
+            restore_problem(&e);
+            None
+        }
+    };
+    node.tables_restored(&mut board, restored);
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
     let running = rcc::frequency::<FDCAN1>();
     let Ok(can) = trn_fdcan_node::start(
@@ -91,9 +253,12 @@ async fn main(_spawner: Spawner) {
         return;
     };
     defmt::info!(
-        "trn-controller on STM32H743: f32 tables, CAN {} bit/s, FD data phase {} bit/s; waiting for a SessionConfig",
+        "trn-controller on STM32H743: f32 tables (store: 2 slots of {} B at 0x{:x}, saves every {} learning steps), CAN {} bit/s, FD data phase {} bit/s; waiting for a SessionConfig",
+        store::SLOT,
+        embassy_stm32::flash::FLASH_BASE as u32 + store::STORE_AT,
+        SAVE_EVERY_STEPS,
         bitrate::NOMINAL,
         bitrate::DATA
     );
-    trn_fdcan_node::run(can, CONTROLLER.take(), NODE.take()).await
+    trn_fdcan_node::run(can, &mut board, node).await
 }
