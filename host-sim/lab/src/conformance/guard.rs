@@ -14,7 +14,7 @@ use trn_protocol::{
     SessionConfig, StoreCommand, StoreOp, TablesEvent,
 };
 
-use super::journal::{errors, missing_error, reports};
+use super::journal::{echoed, errors, missing_error, reports};
 use super::{nothing_moved, stage1, Suite};
 use crate::error::{LabError, Result};
 
@@ -34,10 +34,6 @@ fn heartbeats(j: &[Envelope]) -> usize {
     j.iter()
         .filter(|e| matches!(e.msg, Message::Heartbeat(_)))
         .count()
-}
-
-fn echoed(j: &[Envelope]) -> bool {
-    j.iter().any(|e| matches!(e.msg, Message::SessionConfig(_)))
 }
 
 fn nonce_of(j: &[Envelope]) -> Option<GuardNonce> {

@@ -93,6 +93,13 @@ pub fn has_error(journal: &[Envelope], code: u16, detail: u32) -> bool {
         .any(|e| e.code == code && e.detail == detail)
 }
 
+/// Whether a `SessionConfig` was sent in the journal (a configuration acknowledged).
+pub fn echoed(journal: &[Envelope]) -> bool {
+    journal
+        .iter()
+        .any(|e| matches!(e.msg, Message::SessionConfig(_)))
+}
+
 /// A problem when the error `code` (named `name`) with `detail` was not reported.
 pub fn missing_error(journal: &[Envelope], code: u16, detail: u32, name: &str) -> Option<String> {
     (!has_error(journal, code, detail)).then(|| {

@@ -7,7 +7,7 @@ use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{CanFrame, CaptureKind, Envelope, GraspRequest, Message, Mode, SessionConfig};
 
 use super::journal::{
-    errors, gripper_commands, missing_error, move_problems, moves, reports, Move,
+    echoed, errors, gripper_commands, missing_error, move_problems, moves, reports, Move,
 };
 use super::{nothing_moved, stage1, stage2, Suite, STAGE1_JOINTS, STAGE2_JOINTS};
 use crate::error::Result;
@@ -139,7 +139,7 @@ where
         )
         .into_iter()
         .collect();
-        if j.iter().any(|e| matches!(e.msg, Message::SessionConfig(_))) {
+        if echoed(&j) {
             p.push("the new configuration was acknowledged".into());
         }
         self.verdict(

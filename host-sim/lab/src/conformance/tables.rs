@@ -10,7 +10,7 @@ use trn_protocol::{
     TablesEvent,
 };
 
-use super::journal::{errors, missing_error};
+use super::journal::{echoed, errors, missing_error};
 use super::{nothing_moved, Suite};
 use crate::error::Result;
 
@@ -22,10 +22,6 @@ fn statuses(j: &[Envelope]) -> Vec<trn_protocol::TablesStatus> {
             _ => None,
         })
         .collect()
-}
-
-fn echoed(j: &[Envelope]) -> bool {
-    j.iter().any(|e| matches!(e.msg, Message::SessionConfig(_)))
 }
 
 impl<P> Suite<'_, P>
