@@ -182,6 +182,9 @@ fn study_results_carry_their_provenance() {
     let trn = env!("CARGO_BIN_EXE_trn");
     let cmp = tmp("compare.json");
     let c = cmp.to_str().unwrap();
+    // the runs go beside the report: the default (out/compare in the working directory)
+    // would write into the checkout
+    let cmp_out = tmp("compare-out");
     stdout(&run(
         trn,
         &[
@@ -193,6 +196,8 @@ fn study_results_carry_their_provenance() {
             "--project-only",
             "--report",
             c,
+            "--out",
+            cmp_out.to_str().unwrap(),
         ],
     ));
     let dir = tmp("lifelong");

@@ -80,10 +80,13 @@ impl Ctrl {
     ) -> PyResult<Ctrl> {
         let bad = |what: &str, name: &str| PyValueError::new_err(format!("no {what} {name:?}"));
         let law = Law::from_name(law).ok_or_else(|| bad("law", law))?;
-        if law == Law::Model {
-            return Err(PyValueError::new_err(
-                "the model-based reference runs in the simulator only (trn train --controller model)",
-            ));
+        if law.host_only() {
+            return Err(PyValueError::new_err(format!(
+                "law {:?} runs in the simulator only (trn train --controller {}); \
+                 this binding serves \"trn\" and \"broyden\"",
+                law.name(),
+                law.name()
+            )));
         }
         let preset = Preset::from_name(preset).ok_or_else(|| bad("preset", preset))?;
         let ablation = Ablation::from_name(ablation).ok_or_else(|| bad("ablation", ablation))?;

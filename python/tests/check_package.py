@@ -111,6 +111,16 @@ def controllers():
         assert broyden.done and len(infos) >= 2, broyden.outcome
         assert broyden.outcome.get("stage1") is not None
 
+    @check("laws the binding cannot serve are refused, naming the law")
+    def _():
+        for law in ("model", "oracle", "trm"):
+            try:
+                Controller(law)
+            except ValueError as e:
+                assert law in str(e), e
+            else:
+                raise AssertionError(f"Controller({law!r}) was accepted")
+
 
 def decoder(log):
     @check(f"the decoder: every frame of {log} decoded")
