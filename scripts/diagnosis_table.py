@@ -45,7 +45,7 @@ def main() -> int:
             }
         )
     print(
-        "| plant | seeds | coarse move: mean px | p95 over targets px (mean of seeds) "
+        "| configuration | seeds | coarse move: mean px | p95 over targets px (mean of seeds) "
         "| worst seed px (seed) | after 2 fine px | noise floor px "
         "| failed trials: held-out / whole run |"
     )
