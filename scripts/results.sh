@@ -46,5 +46,10 @@ mv "$res/lifelong/lifelong.png" docs/lifelong-seed100.png
     --out "$res/lifelong-realistic-aging" --runs "$runs/lifelong-realistic-aging" "${resume[@]}" \
     > "$res/lifelong-realistic-aging.md"
 mv "$res/lifelong-realistic-aging/lifelong.png" docs/lifelong-realistic-aging-seed100.png
+# where the coarse move's error comes from: the realistic plant against copies without
+# hysteresis and with noise-free cameras, 3 seeds from 100 (docs/diagnosis.md)
+"$trn" study studies/diagnosis.toml --runs "$runs/diagnosis" "${resume[@]}" \
+    --report out/diagnosis.json > out/diagnosis.md
+python3 scripts/diagnosis_table.py "$runs/diagnosis" > "$res/diagnosis.md"
 python3 scripts/readme_sections.py --results "$res"
 echo "results: $res/, the pictures and the generated sections of README.md and docs/*.md regenerated"
