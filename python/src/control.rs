@@ -79,15 +79,22 @@ impl Ctrl {
         image: (u16, u16),
     ) -> PyResult<Ctrl> {
         let bad = |what: &str, name: &str| PyValueError::new_err(format!("no {what} {name:?}"));
-        let law = Law::from_name(law).ok_or_else(|| bad("law", law))?;
-        if law.host_only() {
-            return Err(PyValueError::new_err(format!(
-                "law {:?} runs in the simulator only (trn train --controller {}); \
-                 this binding serves \"trn\" and \"broyden\"",
-                law.name(),
-                law.name()
-            )));
-        }
+        // an allow-list: a law added to the controller later is refused here until this
+        // binding can serve it
+        let law = match Law::from_name(law) {
+            Some(l @ (Law::Trn | Law::Broyden)) => l,
+            Some(l) if l.host_only() => {
+                return Err(PyValueError::new_err(format!(
+                    "law {law:?} runs in the simulator only (trn train --controller {law}); \
+                     this binding serves \"trn\" and \"broyden\""
+                )))
+            }
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "no law {law:?} in this binding: it serves \"trn\" and \"broyden\""
+                )))
+            }
+        };
         let preset = Preset::from_name(preset).ok_or_else(|| bad("preset", preset))?;
         let ablation = Ablation::from_name(ablation).ok_or_else(|| bad("ablation", ablation))?;
         let image = ImageSize {
