@@ -9,6 +9,16 @@ use crate::stereo::{point_of, seen, tolerance_px, RECAPTURES};
 use crate::vec3::{add, dot, norm, scale, sub, unit, V3};
 use crate::Plant;
 
+/// The smallest noise (pixels) the fit weighs its residuals by: the fit works in noise units,
+/// so a camera configured without noise (`pixel_noise_px = 0`, exact readings) would divide
+/// by zero and never fill a hidden light; below this floor the readings' own rounding is the
+/// noise. Above it the fit's sigma is the camera's.
+const MIN_FIT_SIGMA_PX: f64 = 0.01;
+
+fn fit_sigma_px(pixel_noise_px: f64) -> f64 {
+    pixel_noise_px.max(MIN_FIT_SIGMA_PX)
+}
+
 /// Where the ray from `o` along unit `u` meets the sphere of radius `r` about `s`: both
 /// points in front of the camera, or the ray's closest point when it misses (noise).
 fn ray_sphere(o: &V3, u: &V3, s: &V3, r: f64) -> Vec<V3> {
@@ -144,7 +154,7 @@ impl Plant {
         let data = Problem {
             cams,
             d: self.cfg.light_offset_mm,
-            sigma: self.cfg.pixel_noise_px,
+            sigma: fit_sigma_px(self.cfg.pixel_noise_px),
             readings,
             prior: None,
         };

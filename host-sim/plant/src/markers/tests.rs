@@ -112,3 +112,23 @@ fn a_marker_seen_by_both_cameras_anchors_an_estimate_after_a_long_move() {
     assert_eq!(fill.no_fit, None, "{fill:?}");
     assert_eq!(fill.estimated, 2, "{fill:?}");
 }
+
+/// Exact readings (a camera configured without noise) fill a hidden light as the noisy
+/// camera does: the fit weighs its residuals by a floor on the noise, never by zero.
+#[test]
+fn a_noise_free_camera_fills_a_hidden_light() {
+    let mut cfg = SimConfig::realistic();
+    cfg.pixel_noise_px = 0.0;
+    let mut plant = Plant::new(&cfg, 5).unwrap();
+    let m = pose(&mut plant);
+    // q hidden from camera 1 only: p and c seen by both, the track where the arm is
+    let (mut l, mut c) = readings(&plant, &m, [[true, true], [true, false], [true, true]]);
+    let fill = plant.fill_markers(&mut l, &mut c, &[0, 1], &mut tracker(&m, &[0.0; 3]));
+    assert_eq!(fill.no_fit, None, "{fill:?}");
+    assert_eq!(fill.filled, 1, "{fill:?}");
+    let truth = readings(&plant, &m, [[true; 2]; 3]).0;
+    let (a, b) = (&l.points[3], &truth.points[3]);
+    assert_eq!(a.status, PointStatus::Valid, "{l:?}");
+    let off = (a.x - b.x).hypot(a.y - b.y);
+    assert!(off <= tolerance_px(0.0), "{off} px off: {l:?}");
+}
