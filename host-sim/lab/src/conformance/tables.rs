@@ -1,13 +1,13 @@
-//! The tables and the configuration's law (SPEC 3.2, 3.5, 3.6 item 3): the tables' status is
-//! answered, chunk 0 of the image starts with the checkpoint's magic, a law the controller
-//! does not run is refused as valid but unsupported.
+//! The tables and the configuration's law (SPEC 3.2, 3.5, 3.6 item 3, 3.7): the tables' status
+//! is answered, chunk 0 of the image starts with the checkpoint's magic, a save is answered,
+//! a law the controller does not run is refused as valid but unsupported.
 
 use embedded_can::blocking::Can;
-use trn_node::codes::{self, table_reason};
+use trn_node::codes::{self, table_op, table_reason};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, Envelope, Message, SessionConfig, StoreCommand, StoreOp, TableReadRequest,
-    TablesEvent,
+    CanFrame, Envelope, ErrorReport, Message, SessionConfig, StoreCommand, StoreOp,
+    TableReadRequest, TablesEvent,
 };
 
 use super::journal::{echoed, errors, missing_error};
@@ -121,6 +121,49 @@ where
         }
         self.verdict(
             "TableReadRequest{0} is answered with chunk 0 of the checkpoint image, starting with TRNC",
+            p,
+        );
+        Ok(())
+    }
+
+    /// `StoreCommand{Save}` is answered (SPEC 3.7): `TablesStatus{Saved}` by a controller that
+    /// keeps its TRN tables in a store, `TABLES_FAILED` 0x0501 by one without TRN tables (its
+    /// status gave an image of 0 bytes), 0x0502 by one with tables but no store; nothing
+    /// moves. Asked between trials, in `Mature`.
+    pub(super) fn save(&mut self) -> Result<()> {
+        let ask = StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        };
+        self.send(ask.into())?;
+        let save_failed = |e: &ErrorReport| {
+            e.code == codes::TABLES_FAILED && (e.detail >> 8) & 0xFF == table_op::SAVE
+        };
+        let saved = |j: &[Envelope]| statuses(j).iter().any(|s| s.event == TablesEvent::Saved);
+        let done = |j: &[Envelope]| saved(j) || errors(j).iter().any(save_failed);
+        let j = self.collect(done, false)?;
+        let mut p = nothing_moved(&j);
+        let failure = errors(&j).into_iter().find(save_failed).map(|e| e.detail);
+        let no_tables = self.status.is_some_and(|s| s.image_len == 0);
+        let (no_tables_detail, no_store_detail) = (
+            table_op::SAVE << 8 | table_reason::NO_TABLES,
+            table_op::SAVE << 8 | table_reason::NO_STORE,
+        );
+        match (saved(&j), failure) {
+            (true, None) if !no_tables => {}
+            (false, Some(d)) if no_tables && d == no_tables_detail => {}
+            (false, Some(d)) if !no_tables && d == no_store_detail => {}
+            (got, detail) => p.push(format!(
+                "saved {got}, TABLES_FAILED {detail:#06x?}: expected {}",
+                if no_tables {
+                    "TABLES_FAILED 0x0501 (no TRN tables: its status gave an image of 0 bytes)"
+                } else {
+                    "TablesStatus{Saved}, or TABLES_FAILED 0x0502 without a store"
+                }
+            )),
+        }
+        self.verdict(
+            "StoreCommand{Save} is answered: TablesStatus{Saved}, or TABLES_FAILED 0x0501 without TRN tables, 0x0502 without a store; no move",
             p,
         );
         Ok(())
