@@ -22,9 +22,14 @@ fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
     assert!(r.conformance.len() >= 18, "{} checks", r.conformance.len());
     let failed: Vec<_> = r.conformance.iter().filter(|c| !c.passed).collect();
     assert!(failed.is_empty(), "{failed:#?}");
-    // the save and the erase without a nonce are checked for every law: answered with the
-    // save or the refusal, or the reason there is no store or no tables
-    for name in ["StoreCommand{Save}", "StoreCommand{Erase}"] {
+    // the save, the erase without a nonce and a pre-emption are checked for every law: the
+    // save or the refusal answered (or the reason there is no store or no tables), the
+    // trial in progress ended without a word
+    for name in [
+        "StoreCommand{Save}",
+        "StoreCommand{Erase}",
+        "A newer trial's target mid-trial pre-empts",
+    ] {
         let check = r.conformance.iter().find(|c| c.name.starts_with(name));
         assert!(
             check.is_some_and(|c| c.passed && !c.skipped),
