@@ -60,8 +60,8 @@ pub(crate) struct Guard {
     op: GuardOp,
     issued: u32,
     issued_ms: u32,
-    /// The last nonce presented against an issued one (accepted, stale or wrong), 0 none: a
-    /// nonce is good for one try.
+    /// The issued nonce spent last (by a try that was accepted, stale or wrong), 0 none: a
+    /// nonce is good for one try, and presenting it again is refused as used.
     spent: u32,
 }
 

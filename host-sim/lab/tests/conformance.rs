@@ -22,6 +22,20 @@ fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
     assert!(r.conformance.len() >= 18, "{} checks", r.conformance.len());
     let failed: Vec<_> = r.conformance.iter().filter(|c| !c.passed).collect();
     assert!(failed.is_empty(), "{failed:#?}");
+    // the save, the erase without a nonce and a pre-emption are checked for every law: the
+    // save or the refusal answered (or the reason there is no store or no tables), the
+    // trial in progress ended without a word
+    for name in [
+        "StoreCommand{Save}",
+        "StoreCommand{Erase}",
+        "A newer trial's target mid-trial pre-empts",
+    ] {
+        let check = r.conformance.iter().find(|c| c.name.starts_with(name));
+        assert!(
+            check.is_some_and(|c| c.passed && !c.skipped),
+            "{name}: {check:?}"
+        );
+    }
 }
 
 #[test]

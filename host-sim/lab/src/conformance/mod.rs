@@ -13,7 +13,7 @@
 //!
 //! The sequences: `sequences.rs` (session, priming, training, aborts, a late duplicate),
 //! `mature.rs` (grasps and their repeats, frozen tables, configurations outside `Idle`),
-//! `tables.rs` (the tables' status, chunk 0, an unsupported law), `guard.rs` (after `Idle`:
+//! `tables.rs` (the tables' status, chunk 0, a save, an erase refused, an unsupported law), `guard.rs` (after `Idle`:
 //! trials refused, the nonce's refusals and its acceptance).
 
 mod guard;
@@ -109,6 +109,8 @@ where
     s.abort()?;
     s.mature(session)?;
     s.chunk_zero()?;
+    s.save()?;
+    s.erase_without_nonce()?;
     let idle = s.runner.mode(Mode::Idle);
     s.verdict(
         "ModeChange{Idle} is acknowledged (echo to Broadcast)",

@@ -1,7 +1,8 @@
 //! The session's trial sequences (SPEC 3, 3.1, 3.2): the configuration and its repeat,
 //! priming with and without supervision, training trials of both stages with a fixed
 //! number of fine moves and with the controller's own rule, a late duplicate of an older
-//! trial, an invalid reading's abort and its repeat, a grasp target out of order.
+//! trial, a trial pre-empted by a newer one, an invalid reading's abort and its repeat, a
+//! grasp target out of order.
 
 use embedded_can::blocking::Can;
 use trn_node::codes;
@@ -177,6 +178,45 @@ where
         }
         self.verdict(
             "A late target of an older trial of the session (not the last ended) starts nothing: no move, no report",
+            p,
+        );
+        self.preemption()
+    }
+
+    /// A newer trial's target while a trial is in progress pre-empts it at once (SPEC 3.1):
+    /// the trial in progress (20 fixed fine moves) gets no report and no abort, the newer one
+    /// runs to its own report. The newer target is sent as soon as the first move was seen.
+    fn preemption(&mut self) -> Result<()> {
+        let t = self.target(false, 5)?;
+        let first = self.next_trial();
+        self.send(stage1(first, &t, 20, false).into())?;
+        let begun = |j: &[Envelope]| !moves(j).is_empty() || !errors(j).is_empty();
+        let mut j = self.collect(begun, false)?;
+        let mut p = Vec::new();
+        if moves(&j).is_empty() {
+            p.push(format!(
+                "trial {first} made no move: errors {:?}",
+                errors(&j)
+            ));
+        }
+        let second = self.next_trial();
+        self.send(stage1(second, &t, 1, false).into())?;
+        j.extend(self.collect(Self::ended(second, 1), true)?);
+        if reports(&j).iter().any(|r| r.trial == first) {
+            p.push(format!(
+                "trial {first} reported ({:?}): it ended before trial {second} came, or was not pre-empted",
+                reports(&j)
+            ));
+        }
+        match reports(&j).iter().filter(|r| r.trial == second).count() {
+            1 => {}
+            n => p.push(format!("{n} reports of trial {second}, expected one")),
+        }
+        if !errors(&j).is_empty() {
+            p.push(format!("errors {:?}", errors(&j)));
+        }
+        self.verdict(
+            "A newer trial's target mid-trial pre-empts the trial in progress: no report and no abort for it, the newer trial runs to its report",
             p,
         );
         Ok(())

@@ -1,13 +1,14 @@
-//! The tables and the configuration's law (SPEC 3.2, 3.5, 3.6 item 3): the tables' status is
-//! answered, chunk 0 of the image starts with the checkpoint's magic, a law the controller
-//! does not run is refused as valid but unsupported.
+//! The tables and the configuration's law (SPEC 3.2, 3.5, 3.6 item 3, 3.7): the tables' status
+//! is answered, chunk 0 of the image starts with the checkpoint's magic, a save is answered,
+//! an erase without a nonce is refused, a law the controller does not run is refused as valid
+//! but unsupported.
 
 use embedded_can::blocking::Can;
-use trn_node::codes::{self, table_reason};
+use trn_node::codes::{self, table_op, table_reason};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, Envelope, Message, SessionConfig, StoreCommand, StoreOp, TableReadRequest,
-    TablesEvent,
+    CanFrame, Envelope, ErrorReport, Message, SessionConfig, StoreCommand, StoreOp,
+    TableReadRequest, TablesEvent,
 };
 
 use super::journal::{echoed, errors, missing_error};
@@ -121,6 +122,120 @@ where
         }
         self.verdict(
             "TableReadRequest{0} is answered with chunk 0 of the checkpoint image, starting with TRNC",
+            p,
+        );
+        Ok(())
+    }
+
+    /// `StoreCommand{Save}` is answered (SPEC 3.7): `TablesStatus{Saved}` by a controller that
+    /// keeps its TRN tables in a store, `TABLES_FAILED` 0x0501 by one without TRN tables (its
+    /// status gave an image of 0 bytes), 0x0502 by one with tables but no store; nothing
+    /// moves. Asked between trials, in `Mature`.
+    pub(super) fn save(&mut self) -> Result<()> {
+        let ask = StoreCommand {
+            op: StoreOp::Save,
+            nonce: 0,
+        };
+        self.send(ask.into())?;
+        let save_failed = |e: &ErrorReport| {
+            e.code == codes::TABLES_FAILED && (e.detail >> 8) & 0xFF == table_op::SAVE
+        };
+        let saved = |j: &[Envelope]| statuses(j).iter().any(|s| s.event == TablesEvent::Saved);
+        let done = |j: &[Envelope]| saved(j) || errors(j).iter().any(save_failed);
+        let j = self.collect(done, false)?;
+        let mut p = nothing_moved(&j);
+        let failure = errors(&j).into_iter().find(save_failed).map(|e| e.detail);
+        let no_tables = self.status.is_some_and(|s| s.image_len == 0);
+        let (no_tables_detail, no_store_detail) = (
+            table_op::SAVE << 8 | table_reason::NO_TABLES,
+            table_op::SAVE << 8 | table_reason::NO_STORE,
+        );
+        match (saved(&j), failure) {
+            (true, None) if !no_tables => {}
+            (false, Some(d)) if no_tables && d == no_tables_detail => {}
+            (false, Some(d)) if !no_tables && d == no_store_detail => {}
+            (got, detail) => p.push(format!(
+                "saved {got}, TABLES_FAILED {detail:#06x?}: expected {}",
+                if no_tables {
+                    "TABLES_FAILED 0x0501 (no TRN tables: its status gave an image of 0 bytes)"
+                } else {
+                    "TablesStatus{Saved}, or TABLES_FAILED 0x0502 without a store"
+                }
+            )),
+        }
+        self.verdict(
+            "StoreCommand{Save} is answered: TablesStatus{Saved}, or TABLES_FAILED 0x0501 without TRN tables, 0x0502 without a store; no move",
+            p,
+        );
+        Ok(())
+    }
+
+    /// The tables' status now (`StoreCommand{Status}` answered), if it came.
+    fn status_now(&mut self) -> Result<Option<trn_protocol::TablesStatus>> {
+        let ask = StoreCommand {
+            op: StoreOp::Status,
+            nonce: 0,
+        };
+        self.send(ask.into())?;
+        let status = |j: &[Envelope]| {
+            statuses(j)
+                .into_iter()
+                .find(|s| s.event == TablesEvent::Status)
+        };
+        let j = self.collect(|j| status(j).is_some(), false)?;
+        Ok(status(&j))
+    }
+
+    /// `StoreCommand{Erase}` without a nonce is refused and erases nothing (SPEC 3.4, 3.7):
+    /// `GUARD_REFUSED` 0x301 (the erase is guarded always, and its op in the detail is 3), or
+    /// first `TABLES_FAILED` 0x0601 without TRN tables, 0x0602 without a store; the stored
+    /// copy's sequence is the same before and after, no `TablesStatus{Erased}`, no move.
+    pub(super) fn erase_without_nonce(&mut self) -> Result<()> {
+        let before = self.status_now()?;
+        let ask = StoreCommand {
+            op: StoreOp::Erase,
+            nonce: 0,
+        };
+        self.send(ask.into())?;
+        let refused = |e: &ErrorReport| {
+            e.code == codes::GUARD_REFUSED
+                || (e.code == codes::TABLES_FAILED && (e.detail >> 8) & 0xFF == table_op::ERASE)
+        };
+        let j = self.collect(|j| errors(j).iter().any(refused), true)?;
+        let mut p = nothing_moved(&j);
+        let refusal = errors(&j).into_iter().find(refused);
+        let no_tables = self.status.is_some_and(|s| s.image_len == 0);
+        let erase = |reason| (codes::TABLES_FAILED, table_op::ERASE << 8 | reason);
+        let allowed = if no_tables {
+            vec![erase(table_reason::NO_TABLES)]
+        } else {
+            vec![(codes::GUARD_REFUSED, 0x301), erase(table_reason::NO_STORE)]
+        };
+        match refusal {
+            Some(e) if allowed.contains(&(e.code, e.detail)) => {}
+            other => p.push(format!(
+                "refusal {other:?}: expected {}",
+                if no_tables {
+                    "TABLES_FAILED 0x0601 (no TRN tables: its status gave an image of 0 bytes)"
+                } else {
+                    "GUARD_REFUSED 0x301 (erase, no nonce), or TABLES_FAILED 0x0602 without a store"
+                }
+            )),
+        }
+        if statuses(&j).iter().any(|s| s.event == TablesEvent::Erased) {
+            p.push("the stored copy was erased".into());
+        }
+        let after = self.status_now()?;
+        match (before, after) {
+            (Some(b), Some(a)) if a.stored_sequence == b.stored_sequence => {}
+            (b, a) => p.push(format!(
+                "stored copy before {:?}, after {:?}: expected the same",
+                b.map(|s| s.stored_sequence),
+                a.map(|s| s.stored_sequence)
+            )),
+        }
+        self.verdict(
+            "StoreCommand{Erase} without a nonce is refused (GUARD_REFUSED 0x301, or TABLES_FAILED 0x0601 without TRN tables, 0x0602 without a store) and erases nothing",
             p,
         );
         Ok(())
