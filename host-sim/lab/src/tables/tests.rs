@@ -217,6 +217,7 @@ fn opening(want: Want, reset: bool) -> Opening {
         session,
         fingerprint: cfg().fingerprint(),
         image: trn_controller::presets::ImageSize::DEFAULT,
+        needs_tables: Vec::new(),
     }
 }
 
