@@ -118,3 +118,30 @@ fn runs_that_need_the_tables_refuse_a_v3_controller_naming_the_version() {
     assert!(!dir.join("c.ckpt").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The camera processor's estimated lights (a point status version 3 does not have) reach a
+/// version-3 controller as hidden (`Occluded`): the grasps that a version-4 controller
+/// completes on estimates abort there, and no observation is one it cannot decode (its frame
+/// errors are the status requests of the probe alone).
+#[test]
+fn a_v3_controller_gets_estimated_lights_as_hidden_ones() {
+    let mut spec = train(true);
+    spec.plan = Plan::new(60, 10, 20);
+    let v3 = run::run_quietly(&spec).unwrap();
+    spec.inline_v3 = false;
+    let v4 = run::run_quietly(&spec).unwrap();
+    let counts =
+        |r: &trn_lab::report::Report, what: &str| r.bus_stats.controller.as_ref().unwrap()[what];
+    let probe = trn_transport::BusSpec::InProc.profile(false).retries + 1;
+    assert_eq!(counts(&v3, "frame_errors"), probe);
+    assert_eq!(counts(&v4, "frame_errors"), 0);
+    assert!(
+        !v3.failures.is_empty(),
+        "this seed's grasps see estimated lights"
+    );
+    assert!(v4.failures.is_empty(), "{:?}", v4.failures);
+    for f in &v3.failures {
+        assert!(f.reason.contains("occluded"), "{f:?}");
+    }
+    assert!(v3.grasp.success_rate < v4.grasp.success_rate);
+}
