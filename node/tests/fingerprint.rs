@@ -103,7 +103,11 @@ fn crc32(bytes: &[u8]) -> u32 {
     for &x in bytes {
         c ^= u32::from(x);
         for _ in 0..8 {
-            c = if c & 1 != 0 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
         }
     }
     !c
@@ -158,7 +162,9 @@ fn the_specs_formula_gives_every_configurations_fingerprint() {
 /// any layout) and the `0x` number after it.
 fn spec_vector() -> (Vec<u8>, u32) {
     let spec = include_str!("../../protocol/SPEC.md");
-    let at = spec.find("**Test vector**").expect("SPEC.md has the test vector");
+    let at = spec
+        .find("**Test vector**")
+        .expect("SPEC.md has the test vector");
     let rest = &spec[at..];
     let open = rest.find("```text\n").expect("its bytes") + "```text\n".len();
     let close = open + rest[open..].find("```").unwrap();
@@ -188,7 +194,11 @@ fn the_specs_test_vector_is_the_project_presets() {
         "SPEC.md's bytes are not the project preset's ({} bytes)",
         ours.len()
     );
-    assert_eq!(crc32(&bytes), fp, "SPEC.md's fingerprint is not its bytes' CRC");
+    assert_eq!(
+        crc32(&bytes),
+        fp,
+        "SPEC.md's fingerprint is not its bytes' CRC"
+    );
     assert_eq!(
         fp,
         cfg.fingerprint(),

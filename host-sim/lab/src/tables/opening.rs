@@ -153,7 +153,9 @@ where
                     .map(|named| format!(": run with {named} to use them"))
                     .unwrap_or_default();
                 return Err(LabError::Controller(format!(
-                    "holds tables learned under another configuration than this run's ({}){theirs}",
+                    "holds tables learned under another configuration than this run's: its fingerprint {:#010x}, this run's {:#010x} (SPEC.md 3.2.1 gives the formula; {}){theirs}",
+                    before.fingerprint,
+                    o.fingerprint,
                     describe(&before, o.image)
                 )));
             }

@@ -284,6 +284,13 @@ fn held_tables_are_kept_under_their_configuration_only() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("run with --preset project"), "{e}");
+    // both numbers, for a controller that computed its own
+    let fingerprints = format!(
+        "its fingerprint {:#010x}, this run's {:#010x}",
+        cfg().fingerprint(),
+        paper.fingerprint
+    );
+    assert!(e.contains(&fingerprints), "{e}");
 }
 
 /// A write into learned tables without a nonce is refused by the node (`GUARD_REFUSED`, no
