@@ -145,3 +145,26 @@ fn a_v3_controller_gets_estimated_lights_as_hidden_ones() {
     }
     assert!(v3.grasp.success_rate < v4.grasp.success_rate);
 }
+
+/// Under 5 % of every fault at once the version is still told right both ways (a v4 node's
+/// status answer gets through one of its requests' repeats; a v3 node keeps beating), and
+/// the v3 node learns what it learns on a clean bus.
+#[test]
+fn the_version_is_told_right_under_faults() {
+    let faults: trn_protocol::bus::FaultConfig =
+        "drop=0.05,dup=0.05,corrupt=0.05,truncate=0.05,reorder=0.05"
+            .parse()
+            .unwrap();
+    for v3 in [true, false] {
+        let clean = run::run_quietly(&train(v3)).unwrap();
+        let mut spec = train(v3);
+        spec.bus.faults = Some(faults);
+        let faulty = run::run_quietly(&spec).unwrap();
+        let version = if v3 { 3 } else { 4 };
+        assert_eq!(faulty.controller_protocol, Some(version));
+        assert_eq!(faulty.stage1_error_px, clean.stage1_error_px, "v{version}");
+        assert_eq!(faulty.stage2_error_px, clean.stage2_error_px, "v{version}");
+        let injected = faulty.bus_stats.injected.as_ref().unwrap();
+        assert!(injected["dropped"] > 0, "{injected:?}");
+    }
+}
