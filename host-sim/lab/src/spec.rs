@@ -295,8 +295,11 @@ impl RunSpec {
         {
             return usage("a controller configuration no profile describes (tuning) takes no checkpoints or tables");
         }
-        if self.inline_v3 && profile.controller != trn_transport::ControllerSite::Inline {
-            return usage("a version-3 controller node runs in process only");
+        if self.inline_v3
+            && (profile.controller != trn_transport::ControllerSite::Inline
+                || self.controller_override.is_some())
+        {
+            return usage("a version-3 controller node runs in process only, configured over the bus (no tuning configuration)");
         }
         if plan.resume && self.checkpoint_in.is_none() {
             return usage("--continue needs --checkpoint-in");
