@@ -1,5 +1,7 @@
 //! The controller node's timing and its guard and save settings, one value for every build.
 
+use trn_protocol::ProtocolVersion;
+
 /// Timing of the node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct NodeConfig {
@@ -18,6 +20,13 @@ pub struct NodeConfig {
     /// Learning steps between two saves to the stored copy
     /// (`trn_store::policy::steps_between_saves` of the part); `u32::MAX`: never by steps.
     pub save_every_steps: u32,
+    /// The protocol version the node speaks (SPEC.md, "Versions"): [`ProtocolVersion::V4`];
+    /// [`ProtocolVersion::V3`] makes it a version-3 controller, for testing runners against
+    /// one: the kinds, error codes and point status that version 4 added are unknown to it
+    /// (ignored and counted as frame errors, never answered, never sent), and with them the
+    /// guard and the tables over the bus (a `SessionConfig` re-seeds without a nonce, no
+    /// trial is refused for want of a session).
+    pub protocol: ProtocolVersion,
 }
 
 impl NodeConfig {
@@ -32,6 +41,7 @@ impl NodeConfig {
         nonce_window_ms: 2000,
         allow_unguarded_reset: false,
         save_every_steps: u32::MAX,
+        protocol: ProtocolVersion::V4,
     };
 
     /// The host's loop (in-process bus, SocketCAN): the simulator answers within a
@@ -43,6 +53,17 @@ impl NodeConfig {
         retries: 50,
         ..NodeConfig::DEFAULT
     };
+
+    /// [`NodeConfig::HOST`] speaking protocol version 3.
+    pub const HOST_V3: NodeConfig = NodeConfig {
+        protocol: ProtocolVersion::V3,
+        ..NodeConfig::HOST
+    };
+
+    /// True when the node speaks version 3 only (the guard and the tables unknown to it).
+    pub const fn v3(&self) -> bool {
+        matches!(self.protocol, ProtocolVersion::V3)
+    }
 }
 
 impl Default for NodeConfig {

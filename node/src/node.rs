@@ -176,6 +176,7 @@ impl ControllerNode {
             }
         }
         self.poll_tables(ctrl, out);
+        self.speak_own_version(out);
     }
 
     /// The `now_ms` at which the node next needs a turn if no frame arrives: the earlier of
@@ -242,6 +243,30 @@ impl ControllerNode {
 
     /// Handles one received message.
     pub fn on_message<C: Control + ?Sized>(
+        &mut self,
+        ctrl: &mut C,
+        env: &Envelope,
+        now_ms: u32,
+        out: &mut Outbox,
+    ) {
+        if !self.cfg.protocol.understands(&env.msg) {
+            // a version-3 node's decoder rejects what version 4 added (an unknown kind, an
+            // unknown point status): nothing is answered
+            return self.count_frame_error();
+        }
+        self.handle(ctrl, env, now_ms, out);
+        self.speak_own_version(out);
+    }
+
+    /// Drops from `out` what the node's protocol version does not have (a version-3 node
+    /// never sends what version 4 added).
+    fn speak_own_version(&self, out: &mut Outbox) {
+        if self.cfg.v3() {
+            out.retain(|e| trn_protocol::ProtocolVersion::V3.understands(&e.msg));
+        }
+    }
+
+    fn handle<C: Control + ?Sized>(
         &mut self,
         ctrl: &mut C,
         env: &Envelope,

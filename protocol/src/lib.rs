@@ -27,6 +27,7 @@ mod node;
 mod reassembly;
 mod segment;
 pub mod slcan;
+mod version;
 
 #[cfg(feature = "std")]
 pub mod bus;
@@ -42,6 +43,7 @@ pub use message::*;
 pub use node::{Joint, NodeId, JOINTS};
 pub use reassembly::{Reassembler, DEFAULT_STALE_MS};
 pub use segment::{encode, segment_count, segment_len, Encoder, Frames, CRC_LEN, MAX_SEGMENTS};
+pub use version::{ProtocolVersion, V4_ERROR_CODES};
 
 /// The README's code examples run as doc tests.
 #[cfg(doctest)]

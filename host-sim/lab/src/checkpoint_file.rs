@@ -56,7 +56,11 @@ pub fn load(
         if !header.config_matches(ctrl.config()) {
             return Err(mismatch(
                 path,
-                "learned under another configuration (fingerprint differs)".into(),
+                format!(
+                    "learned under another configuration: its fingerprint {:#010x}, this run's {:#010x}",
+                    header.config_fingerprint,
+                    ctrl.config().fingerprint()
+                ),
             ));
         }
     }

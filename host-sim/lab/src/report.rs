@@ -301,6 +301,11 @@ pub struct Report {
     /// The conformance suite's checks (`trn conformance`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub conformance: Vec<super::conformance::Check>,
+    /// The protocol version the controller speaks (3 or 4, SPEC.md "Versions"): a version-3
+    /// controller's tables are neither read, saved nor checked. None when no session was
+    /// opened over the bus (a tuning configuration given to the controller directly).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller_protocol: Option<u8>,
 }
 
 impl Report {

@@ -8,7 +8,10 @@ use std::time::Duration;
 use embedded_can::blocking::Can;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::heartbeat::HeartbeatConfig;
-use trn_protocol::{BusMode, CanFrame, Encoder, Envelope, Joint, Message, NodeId, Reassembler};
+use trn_protocol::{
+    BusMode, CanFrame, Encoder, Envelope, Joint, Message, NodeId, PixelPoint, PointStatus,
+    ProtocolVersion, Reassembler,
+};
 
 use std::cell::{Ref, RefCell, RefMut};
 use std::rc::Rc;
@@ -67,6 +70,9 @@ pub struct Rig<P> {
     stats: RigStats,
     /// Every message received, in order, while journaling (the conformance suite).
     journal: Option<Vec<Envelope>>,
+    /// The protocol version the controller speaks: the plant's nodes send it nothing it
+    /// does not have (an `Estimated` point goes to a version-3 controller as `Occluded`).
+    peer: ProtocolVersion,
 }
 
 impl<P> Rig<P>
@@ -106,7 +112,13 @@ where
             heard: start,
             stats: RigStats::default(),
             journal: None,
+            peer: ProtocolVersion::CURRENT,
         }
+    }
+
+    /// Serves a controller of protocol version `v` from now on.
+    pub fn serve_version(&mut self, v: ProtocolVersion) {
+        self.peer = v;
     }
 
     /// The plant.
@@ -192,11 +204,32 @@ where
     }
 
     fn send_env(&mut self, env: &Envelope) -> Result<()> {
+        let env = &self.for_peer(*env);
         for f in &self.enc.encode(env)? {
             self.port.transmit(f)?;
             self.stats.frames_out += 1;
         }
         Ok(())
+    }
+
+    /// `env` as the controller's protocol version has it: for version 3 (which has no
+    /// `Estimated` status) a light estimated by the camera processor is a hidden one,
+    /// `Occluded` at (0, 0), as a version-3 camera processor reported it.
+    fn for_peer(&self, mut env: Envelope) -> Envelope {
+        if let Message::Observation(o) = &mut env.msg {
+            if !self.peer.understands(&Message::Observation(*o)) {
+                for p in &mut o.points {
+                    if p.status == PointStatus::Estimated {
+                        *p = PixelPoint {
+                            x: 0.0,
+                            y: 0.0,
+                            status: PointStatus::Occluded,
+                        };
+                    }
+                }
+            }
+        }
+        env
     }
 
     fn send_all(&mut self, out: &Outbox) -> Result<()> {

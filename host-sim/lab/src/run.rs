@@ -96,6 +96,13 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
         session: spec.session_config(false),
         fingerprint: cfg.fingerprint(),
         image: spec.image(),
+        needs_tables: [
+            (spec.tables.is_some(), "--tables"),
+            (spec.outputs.checkpoint.is_some(), "--checkpoint-out"),
+        ]
+        .into_iter()
+        .filter_map(|(given, option)| given.then_some(option))
+        .collect(),
     });
     let mut report = Report::of(spec);
     report.bus_stats.faults = spec.bus.faults.map(|f| format!("{f:?}"));
@@ -142,7 +149,7 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
                 &mut b,
                 restored.ok(),
                 board::guard_seed(spec.seed),
-                trn_node::NodeConfig::HOST,
+                node_config(spec),
             );
             inline(&mut setup, Box::new(b), Some(node), plant, &mut report)?;
         }
@@ -234,7 +241,7 @@ where
     } else {
         BusMode::Classic
     };
-    let node = node.unwrap_or_else(|| ControllerNode::new(trn_node::NodeConfig::HOST));
+    let node = node.unwrap_or_else(|| ControllerNode::new(node_config(spec)));
     let bus = SimulatedBus::with_node(mode, spec.seed, spec.bus.faults, ctrl, node);
     let clock = bus.clock();
     let bus = setup.drive(bus, std::rc::Rc::new(clock), plant, report)?;
@@ -249,6 +256,16 @@ where
         ("aborted", n.aborted),
     ]));
     Ok(())
+}
+
+/// The in-process controller node's settings: the host's, in protocol version 3 for the
+/// test suite's fixture of an old controller.
+fn node_config(spec: &RunSpec) -> trn_node::NodeConfig {
+    if spec.inline_v3 {
+        trn_node::NodeConfig::HOST_V3
+    } else {
+        trn_node::NodeConfig::HOST
+    }
 }
 
 #[cfg(target_os = "linux")]

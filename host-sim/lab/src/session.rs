@@ -149,21 +149,33 @@ impl<'a> Setup<'a> {
                 LabError::Usage("the conformance suite needs a profile's configuration".into())
             })?;
             // the suite re-seeds the tables and trains them: learned ones only if allowed
-            let before = tables::status(&mut runner)?;
-            opening::clear(&mut runner, opening, &before, &mut *self.observer)?;
+            let spoken = tables::probe(&mut runner)?;
+            report.controller_protocol = Some(spoken.version().number());
+            match &spoken {
+                tables::Spoken::V4(before) => {
+                    opening::clear(&mut runner, opening, before, &mut *self.observer)?
+                }
+                tables::Spoken::V3 => {
+                    opening.check_v3()?;
+                    self.observer.notice(opening::V3_NOTICE);
+                }
+            }
             let patience = Patience {
                 answer: profile.answer,
                 quiet: profile.quiet,
                 alive: profile.heartbeat_timeout,
             };
-            let checks = conformance::run(&mut runner, opening.session, patience);
+            let checks = conformance::run(&mut runner, opening.session, patience, spoken);
             report.bus_stats.runner = runner.stats();
             report.conformance = checks?;
             return Ok(runner.into_rig().into_port());
         }
         let mut plan = self.start.plan;
+        let mut tables_over_the_bus = false;
         if let Some(o) = &self.start.opening {
             let opened = opening::open(&mut runner, o, &mut *self.observer)?;
+            report.controller_protocol = Some(opened.version.number());
+            tables_over_the_bus = opened.version >= trn_protocol::ProtocolVersion::V4;
             if let (Some(steps), None) = (opened.kept_steps, self.start.resume) {
                 // the controller's own tables: the schedule goes on from their steps
                 plan.first_trial = steps as usize;
@@ -202,8 +214,9 @@ impl<'a> Setup<'a> {
         }
         // the session's end: a controller that trained keeps its tables (its store), the
         // checkpoint asked for is read out of it (nothing learns in Mature or after an
-        // interrupt), then the session ends
-        if self.start.opening.is_some() {
+        // interrupt), then the session ends; a version-3 controller has no tables over the
+        // bus (a run that needs them was refused at the opening)
+        if tables_over_the_bus {
             if plan.trials > 0 {
                 if let Some(problem) = tables::save(&mut runner)? {
                     self.observer.notice(&format!(

@@ -164,6 +164,10 @@ pub struct RunSpec {
     /// in-process controller directly instead of through the session configuration.
     #[serde(skip)]
     pub controller_override: Option<Config>,
+    /// The in-process controller node speaks protocol version 3 (`NodeConfig::HOST_V3`):
+    /// the test suite's fixture of an old controller (no option of `trn`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub inline_v3: bool,
 }
 
 /// Counts above this are refused (a usage error): a run of that many trials would not fit
@@ -190,6 +194,7 @@ impl RunSpec {
             trials_left: false,
             outputs: Outputs::default(),
             controller_override: None,
+            inline_v3: false,
         }
     }
 
@@ -289,6 +294,12 @@ impl RunSpec {
             && (checkpoints || self.tables.is_some() || self.keep_tables)
         {
             return usage("a controller configuration no profile describes (tuning) takes no checkpoints or tables");
+        }
+        if self.inline_v3
+            && (profile.controller != trn_transport::ControllerSite::Inline
+                || self.controller_override.is_some())
+        {
+            return usage("a version-3 controller node runs in process only, configured over the bus (no tuning configuration)");
         }
         if plan.resume && self.checkpoint_in.is_none() {
             return usage("--continue needs --checkpoint-in");

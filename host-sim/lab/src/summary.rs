@@ -33,12 +33,26 @@ pub fn px(x: f32) -> String {
     }
 }
 
+/// What the summary says of the controller's protocol version: nothing for the current one;
+/// for version 3, that it speaks it and that its tables were not read.
+pub fn protocol_line(r: &Report) -> Option<String> {
+    match r.controller_protocol {
+        Some(v) if v < trn_protocol::ProtocolVersion::CURRENT.number() => Some(format!(
+            "the controller speaks protocol v{v}: its tables were not read, checked or saved (tables over the bus came with v4)"
+        )),
+        _ => None,
+    }
+}
+
 /// Prints the conformance suite's checks; fails when any failed.
 pub fn conformance(r: &Report) -> Result<()> {
     println!(
         "conformance suite on {} (seed {}, {})",
         r.bus, r.seed, r.preset
     );
+    if let Some(line) = protocol_line(r) {
+        println!("{line}; the checks of what v4 added are not applicable");
+    }
     for c in &r.conformance {
         let verdict = match (c.passed, c.skipped) {
             (_, true) => "n/a ",
@@ -76,6 +90,9 @@ pub fn print(r: &Report, paper: bool) -> Result<()> {
         "TRN controller on the simulated SoftArm: {} ({} preset, seed {}, bus {})",
         r.command, r.preset, r.seed, r.bus
     );
+    if let Some(line) = protocol_line(r) {
+        println!("{line}");
+    }
     println!("{:=<w$}", "");
     let d = &r.deployment;
     if d.targets > 0 {

@@ -109,6 +109,12 @@ fn a_checkpoint_of_another_configuration_is_refused_unless_allowed() {
     // the same provenance but another configuration: the fingerprint tells
     let e = checkpoint_file::load(&mut project, &path, paper, false).unwrap_err();
     assert!(e.to_string().contains("fingerprint"), "{e}");
+    let both = format!(
+        "its fingerprint {:#010x}, this run's {:#010x}",
+        c.config().fingerprint(),
+        project.config().fingerprint()
+    );
+    assert!(e.to_string().contains(&both), "{e}");
     checkpoint_file::load(&mut project, &path, project_prov, true).unwrap();
     assert!(project.stage1().net() == c.stage1().net());
 }

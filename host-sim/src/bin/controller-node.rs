@@ -24,6 +24,11 @@ struct Args {
     /// as the process.
     #[arg(long)]
     tables: Option<PathBuf>,
+    /// The protocol version it speaks (protocol/SPEC.md, "Versions"): 4; 3 makes it a
+    /// version-3 controller, to try a runner or a tool against one: what version 4 added
+    /// (the guard, the tables over the bus, estimated lights) is unknown to it.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(3..=4))]
+    protocol: u8,
 }
 
 #[cfg(target_os = "linux")]
@@ -53,7 +58,11 @@ fn run(a: &Args) -> Result<(), String> {
         eprintln!("controller-node: no entropy for the guard ({e}): its learned tables cannot be replaced over the bus");
         [0; 16]
     });
-    let mut node = board::node(&mut b, restored.ok(), guard, trn_node::NodeConfig::HOST);
+    let cfg = match a.protocol {
+        3 => trn_node::NodeConfig::HOST_V3,
+        _ => trn_node::NodeConfig::HOST,
+    };
+    let mut node = board::node(&mut b, restored.ok(), guard, cfg);
     let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
         .map_err(|e| format!("SocketCAN interface {}: {e}", a.iface))?;
     let stop = Arc::new(AtomicBool::new(false));

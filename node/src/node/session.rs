@@ -74,7 +74,7 @@ impl ControllerNode {
             }
         } else {
             if learned
-                && !self.cfg.allow_unguarded_reset
+                && !(self.cfg.allow_unguarded_reset || self.cfg.v3())
                 && !self.guard_allows(GuardOp::Reseed, nonce, now_ms, out)
             {
                 self.session_required = true;

@@ -59,7 +59,7 @@ impl ControllerNode {
         trial: u32,
         out: Option<&mut Outbox>,
     ) -> bool {
-        if !(self.session_required && learned(ctrl)) {
+        if !(self.session_required && learned(ctrl)) || self.cfg.v3() {
             return false;
         }
         match out {

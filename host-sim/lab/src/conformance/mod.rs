@@ -6,6 +6,12 @@
 //! checks from the controller's messages alone that it does what the specification says.
 //! Nothing of the controller's code is used: only the bus.
 //!
+//! A controller that speaks protocol version 3 (it never answered the status request,
+//! SPEC.md "Versions") gets the suite's v3 profile: every check of what version 3 has, and
+//! the checks of what version 4 added (the tables, the guard, a law refused as unsupported,
+//! a late duplicate ignored, a finished grasp's repeated start answered once) reported as not
+//! applicable.
+//!
 //! Where the specification leaves a choice the suite takes either: a controller may end its
 //! loop at `ModeChange{Idle}` (3.1), and the guard concerns tables that learned (a law that
 //! does not train has none); the checks that need a running controller or learned tables
@@ -37,6 +43,7 @@ use trn_protocol::{
 use super::runner::Runner;
 use super::targets::{self, Target};
 use crate::error::{LabError, Result};
+use crate::tables::Spoken;
 use journal::{errors, has_error, heartbeat_problems, moves, reports};
 
 /// One check of the suite and its verdict.
@@ -77,7 +84,14 @@ struct Suite<'a, P> {
     all: Vec<Envelope>,
     /// The tables' status the controller gave first.
     status: Option<TablesStatus>,
+    /// The controller speaks protocol version 3: the checks of what version 4 added are
+    /// not applicable (the suite's v3 profile).
+    v3: bool,
 }
+
+/// Why a check is not applicable to a version-3 controller.
+pub(super) const V4_ONLY: &str =
+    "not applicable: version 4 added it, and the controller speaks protocol v3 (SPEC.md, Versions)";
 
 const STAGE1_JOINTS: [u8; 5] = [0, 1, 2, 3, 4];
 const STAGE2_JOINTS: [u8; 3] = [0, 1, 2];
@@ -87,6 +101,7 @@ pub fn run<P>(
     runner: &mut Runner<P>,
     session: SessionConfig,
     patience: Patience,
+    spoken: Spoken,
 ) -> Result<Vec<Check>>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
@@ -100,6 +115,7 @@ where
         trial: 1000,
         all: Vec::new(),
         status: None,
+        v3: spoken == Spoken::V3,
     };
     s.store_status()?;
     s.unsupported_law(session)?;
@@ -133,6 +149,15 @@ where
             detail: problems.join("; "),
             skipped: false,
         });
+    }
+
+    /// True (and the check `name` reported not applicable) when the controller speaks
+    /// version 3 and the check is of something version 4 added.
+    fn v4_only(&mut self, name: &str) -> bool {
+        if self.v3 {
+            self.skip(name, V4_ONLY);
+        }
+        self.v3
     }
 
     /// A check not applicable to this controller, and why.

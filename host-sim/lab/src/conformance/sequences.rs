@@ -168,6 +168,11 @@ where
         );
 
         // a late duplicate of an older trial (not the one that ended last) starts nothing
+        const LATE: &str = "A late target of an older trial of the session (not the last ended) starts nothing: no move, no report";
+        if self.v4_only(LATE) {
+            // pre-emption is v3's behaviour too
+            return self.preemption();
+        }
         let t = self.target(false, 5)?;
         let older = trial - 2;
         self.send(stage1(older, &t, 1, false).into())?;
@@ -176,10 +181,7 @@ where
         if !reports(&j).is_empty() {
             p.push(format!("reports {:?}", reports(&j)));
         }
-        self.verdict(
-            "A late target of an older trial of the session (not the last ended) starts nothing: no move, no report",
-            p,
-        );
+        self.verdict(LATE, p);
         self.preemption()
     }
 

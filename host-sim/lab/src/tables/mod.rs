@@ -21,8 +21,8 @@ use trn_controller::Law;
 use trn_node::codes::{self, table_op, table_reason};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, GuardNonce, GuardOp, GuardRequest, Message, NodeId, StoreCommand, StoreOp,
-    TablesEvent, TablesStatus,
+    CanFrame, GuardNonce, GuardOp, GuardRequest, Message, NodeId, ProtocolVersion, StoreCommand,
+    StoreOp, TablesEvent, TablesStatus,
 };
 
 pub use read::read;
@@ -109,6 +109,46 @@ where
             _ => None,
         },
     )
+}
+
+/// The protocol version a controller speaks, as its answer to the status request says
+/// (SPEC.md "Versions").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Spoken {
+    /// Version 4: it answered `StoreCommand{Status}`, with this status.
+    V4(TablesStatus),
+    /// Version 3: alive (heard within the heartbeat supervision's timeout) all along, it
+    /// never answered the status request, a kind version 3 does not have.
+    V3,
+}
+
+impl Spoken {
+    /// The version.
+    pub fn version(&self) -> ProtocolVersion {
+        match self {
+            Spoken::V4(_) => ProtocolVersion::V4,
+            Spoken::V3 => ProtocolVersion::V3,
+        }
+    }
+}
+
+/// Which protocol version the controller speaks: `StoreCommand{Status}` until
+/// `TablesStatus{Status}` comes (version 4); after the run's repeats without one, version 3
+/// if the controller was heard within the heartbeat supervision's timeout (its heartbeats),
+/// a failure otherwise. The rig serves the controller in its version from then on.
+pub fn probe<P>(runner: &mut Runner<P>) -> Result<Spoken>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let spoken = match status(runner) {
+        Ok(s) => Spoken::V4(s),
+        Err(LabError::Controller(_)) if runner.rig().since_heard() <= runner.timing().alive => {
+            Spoken::V3
+        }
+        Err(e) => return Err(e),
+    };
+    runner.rig_mut().serve_version(spoken.version());
+    Ok(spoken)
 }
 
 /// How long a save may take: a board programs its flash (some seconds for 227 KB).

@@ -8,13 +8,24 @@
 //! | a checkpoint's tables ([`Want::Image`]: `--checkpoint-in`) | written in, then kept | written in with the guard's nonce if allowed (`--reset-tables`; said what is replaced), refused otherwise |
 //!
 //! Nothing destructive is sent before the check that allows it.
+//!
+//! A controller that speaks protocol version 3 (it never answers the status request, SPEC.md
+//! "Versions") has no tables over the bus: its session begins with the run's
+//! `SessionConfig` alone (new tables, or `keep_tables` for `trn eval` and `trn grasp`, which
+//! the controller checks against its own), and a run that needs the tables read, written,
+//! kept or erased (the options in [`Opening::needs_tables`], `--keep-tables`,
+//! `--reset-tables`, a checkpoint) is refused before anything is sent, naming the version.
 
 use embedded_can::blocking::Can;
 use trn_controller::presets::ImageSize;
 use trn_protocol::bus::ReceiveTimeout;
-use trn_protocol::{CanFrame, ConfirmedSessionConfig, GuardOp, SessionConfig, TablesStatus};
+use trn_protocol::{
+    CanFrame, ConfirmedSessionConfig, GuardOp, ProtocolVersion, SessionConfig, TablesStatus,
+};
 
-use super::{configuration_named, describe, learned, nonce, retry_with_new_nonce, status, write};
+use super::{
+    configuration_named, describe, learned, nonce, probe, retry_with_new_nonce, write, Spoken,
+};
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
 use crate::runner::{Refused, Runner};
@@ -47,13 +58,18 @@ pub struct Opening {
     pub fingerprint: u32,
     /// The cameras' image size (to name a configuration).
     pub image: ImageSize,
+    /// The run's options beyond `want` and `reset` that need the tables over the bus
+    /// (`--tables`, `--checkpoint-out`): a version-3 controller is refused with them.
+    pub needs_tables: Vec<&'static str>,
 }
 
 /// How the session began.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Opened {
-    /// What the controller held before.
-    pub before: TablesStatus,
+    /// The protocol version the controller speaks.
+    pub version: ProtocolVersion,
+    /// What the controller held before (none from a version-3 controller: it does not say).
+    pub before: Option<TablesStatus>,
     /// The stage-1 learning steps of the tables the session runs on, when it keeps the
     /// tables the controller held (the schedule goes on from there).
     pub kept_steps: Option<u32>,
@@ -70,7 +86,38 @@ impl Opening {
     fn held(&self, s: &TablesStatus) -> String {
         format!("holds learned tables ({})", describe(s, self.image))
     }
+
+    /// The options of the run that need the tables over the bus: the run's own, then
+    /// `--keep-tables`, a checkpoint written in, `--reset-tables`.
+    pub fn tables_needed_by(&self) -> Vec<&'static str> {
+        let mut needs = self.needs_tables.clone();
+        match self.want {
+            Want::Held { or_new: true } => needs.push("--keep-tables"),
+            Want::Image(_) => needs.push("--checkpoint-in"),
+            _ => {}
+        }
+        if self.reset {
+            needs.push("--reset-tables");
+        }
+        needs
+    }
+
+    /// Refused when the run needs the tables over the bus from a version-3 controller.
+    pub fn check_v3(&self) -> Result<()> {
+        let needs = self.tables_needed_by();
+        if needs.is_empty() {
+            return Ok(());
+        }
+        Err(LabError::Controller(format!(
+            "speaks protocol v3, which has no tables over the bus (they came with v4: SPEC.md, Versions): {} {} a v4 controller",
+            needs.join(", "),
+            if needs.len() == 1 { "needs" } else { "need" }
+        )))
+    }
 }
+
+/// What the user is told about a version-3 controller's tables.
+pub const V3_NOTICE: &str = "the controller speaks protocol v3: its tables are not read, checked or saved (tables over the bus came with v4)";
 
 /// Begins the session on the controller (see the module): its status, then what the run
 /// wants and allows; `observer` is told what is erased or replaced before it is.
@@ -78,7 +125,22 @@ pub fn open<P>(runner: &mut Runner<P>, o: &Opening, observer: &mut dyn Observer)
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    let before = status(runner)?;
+    let before = match probe(runner)? {
+        Spoken::V4(s) => s,
+        Spoken::V3 => {
+            o.check_v3()?;
+            observer.notice(V3_NOTICE);
+            // `trn eval`, `trn grasp`: the tables it holds, which it checks against the
+            // configuration itself (CONFIG_REJECTED detail 2)
+            let keep = matches!(o.want, Want::Held { .. });
+            runner.configure(o.with_keep(keep))?;
+            return Ok(Opened {
+                version: ProtocolVersion::V3,
+                before: None,
+                kept_steps: None,
+            });
+        }
+    };
     let mut kept_steps = None;
     match &o.want {
         Want::Held { or_new } if *or_new && !learned(&before) => {
@@ -91,7 +153,9 @@ where
                     .map(|named| format!(": run with {named} to use them"))
                     .unwrap_or_default();
                 return Err(LabError::Controller(format!(
-                    "holds tables learned under another configuration than this run's ({}){theirs}",
+                    "holds tables learned under another configuration than this run's: its fingerprint {:#010x}, this run's {:#010x} (SPEC.md 3.2.1 gives the formula; {}){theirs}",
+                    before.fingerprint,
+                    o.fingerprint,
                     describe(&before, o.image)
                 )));
             }
@@ -123,7 +187,11 @@ where
             runner.configure(o.with_keep(true))?;
         }
     }
-    Ok(Opened { before, kept_steps })
+    Ok(Opened {
+        version: ProtocolVersion::V4,
+        before: Some(before),
+        kept_steps,
+    })
 }
 
 /// Makes way for new tables: nothing to do on tables that never learned; learned tables

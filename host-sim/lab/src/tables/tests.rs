@@ -217,6 +217,7 @@ fn opening(want: Want, reset: bool) -> Opening {
         session,
         fingerprint: cfg().fingerprint(),
         image: trn_controller::presets::ImageSize::DEFAULT,
+        needs_tables: Vec::new(),
     }
 }
 
@@ -243,7 +244,7 @@ fn learned_tables_are_erased_or_replaced_only_when_allowed() {
         // trials are refused: the board restored learned tables and no session is in force
         assert!(r.rig().port().node().session_required());
         let opened = open(&mut r, &opening(want.clone(), true), &mut told).unwrap();
-        assert_eq!(opened.before.steps1, 5);
+        assert_eq!(opened.before.map(|b| b.steps1), Some(5));
         assert_eq!(told.0.len(), 1, "{:?}", told.0);
         assert!(told.0[0].contains("5 stage-1 and 0 stage-2 learning steps"));
         assert!(!r.rig().port().node().session_required());
@@ -283,6 +284,13 @@ fn held_tables_are_kept_under_their_configuration_only() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("run with --preset project"), "{e}");
+    // both numbers, for a controller that computed its own
+    let fingerprints = format!(
+        "its fingerprint {:#010x}, this run's {:#010x}",
+        cfg().fingerprint(),
+        paper.fingerprint
+    );
+    assert!(e.contains(&fingerprints), "{e}");
 }
 
 /// A write into learned tables without a nonce is refused by the node (`GUARD_REFUSED`, no
