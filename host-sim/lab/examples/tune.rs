@@ -130,7 +130,9 @@ fn main() {
     let n = seeds as f32;
     println!(
         "BYMOVE {:?}",
-        bym.iter().map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>()
+        bym.iter()
+            .map(|x| (x * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
     );
     println!(
         "MEAN final {:.3} true {:.3} floor {:.3} ratio {:.3} moves {:.2} grasp {:.0}%",
