@@ -51,5 +51,6 @@ mv "$res/lifelong-realistic-aging/lifelong.png" docs/lifelong-realistic-aging-se
 "$trn" study studies/diagnosis.toml --runs "$runs/diagnosis" "${resume[@]}" \
     --report out/diagnosis.json > out/diagnosis.md
 python3 scripts/diagnosis_table.py "$runs/diagnosis" > "$res/diagnosis.md"
+bash scripts/diagnosis_map.sh > "$res/diagnosis-map.md"
 python3 scripts/readme_sections.py --results "$res"
 echo "results: $res/, the pictures and the generated sections of README.md and docs/*.md regenerated"

@@ -13,9 +13,10 @@
 //!   under f32 resolution; `tests::truncation_*` bound the difference against the full sums.
 //!   **Not so with the project preset's shrinking neighbourhood**, which starts at
 //!   `sigma = 50` ([`crate::Config::project_default`]): there the cut at rank 128 drops
-//!   `exp(-128/50)` = 7.7 % of each update's mass in the first learning steps (0.3 % at step
-//!   100, under f32 resolution after step 250). Measured against the untruncated updates
-//!   (`K = N`, host build; tuning seeds 1-3, 300 trials, the fixed-budget evaluation):
+//!   `exp(-128/50)` = 7.7 % of each update's mass in the first learning steps (0.15 % at step
+//!   50, under f32 resolution from step 100). Measured against the untruncated updates
+//!   (`K = N`, host build, sigma's earlier time constant of 100 steps; tuning seeds 1-3, 300
+//!   trials, the fixed-budget evaluation):
 //!   combined noise-free error after the coarse move + 2 fine moves 4.44 px truncated against
 //!   3.80 px untruncated, 3.74 against 3.36 fine moves with the stop rule. `K = N` does not
 //!   fit the firmware's RAM budget (the rankings and rate tables of 1000 ranks); the cost is

@@ -254,6 +254,27 @@ const AVERAGED_RANKS: u16 = 64;
 /// moves.
 const TRIAL_SECANT: f32 = 0.3;
 
+/// Final neighbourhood range of the learning rates (ranks), for [`Config::project_default`]:
+/// a deviation from the paper's sigma = 5 of (8.10, 8.13, 8.16; 8.26, 8.28, 8.30), with the
+/// shrinkage from 50 ranks twice as fast ([`SIGMA_TAU`]: 50 learning steps instead of 100).
+/// A neuron's Jacobian is then built from the secants of moves made near it rather than
+/// near its fifth neighbour (about 50 px away in the 8-D image space of stage 1), where the
+/// arm's local Jacobian differs: on a hysteresis-free plant the learned averaged Jacobian's
+/// step left a residual across the error of about a quarter of it, against a first fine move
+/// of the true Jacobian that leaves 0.15 of the error (`docs/diagnosis.md`, the map's
+/// error). Measured against sigma 5 with time constant 100 (`host-sim/lab/examples/tune.rs`
+/// with `SIG=5 SIGT=100` against the defaults, tuning seeds 1-8, realistic plant, 300
+/// trials, held-out deployment targets): combined noise-free error after the coarse move
+/// 31.6 against 34.0 px, after 2 fine moves 4.02 against 4.59 px, after the budget of 6
+/// 1.42 against 1.43 px, 3.69 against 3.94 fine moves with the stop rule. Sigma 2 alone
+/// (time constant 100) gave 4.00 px and 3.85 moves on seeds 1-4, sigma 1 3.97 px and 3.75,
+/// sigma 8 5.32 px and 4.12; a time constant of 30 (sigma 2) 4.12 px and 3.67 moves.
+const FINAL_SIGMA: f32 = 2.0;
+
+/// Time constant of the neighbourhood's shrinkage, for [`Config::project_default`]: see
+/// [`FINAL_SIGMA`].
+const SIGMA_TAU: f32 = 50.0;
+
 /// The project's deviations from the paper for one stage (see [`Config::project_default`]);
 /// `tolerance` is the floor of (8.7) and the tolerance in mature operation (pixels).
 const fn project_stage(paper: StageConfig, tolerance: f32) -> StageConfig {
@@ -266,8 +287,9 @@ const fn project_stage(paper: StageConfig, tolerance: f32) -> StageConfig {
     };
     s.w.decay = wp_decay;
     s.p.decay = wp_decay;
+    s.sigma = FINAL_SIGMA;
     s.sigma_start = 50.0;
-    s.sigma_tau = 100.0;
+    s.sigma_tau = SIGMA_TAU;
     s.coarse_ranks = AVERAGED_RANKS;
     s.fine_ranks = AVERAGED_RANKS - 1;
     s.tolerance.tau = 40.0;
@@ -373,7 +395,8 @@ impl Config {
     ///   and 2 fine moves is 16.4 px against 4.4 px, the stop rule ends at 3.85 px against
     ///   1.36 px after 5.4 against 3.7 fine moves, and grasps succeed 79 % against 95 %.
     /// - A shrinking neighbourhood for the learning rates: sigma starts at 50 ranks and
-    ///   decays to the paper's 5 with time constant 100 steps ([`StageConfig::sigma_at`]).
+    ///   decays to 2 (the paper's is 5, fixed) with time constant 50 steps
+    ///   ([`StageConfig::sigma_at`]; the final range and the time constant: [`FINAL_SIGMA`]).
     ///   With 1000 neurons and a few hundred trials most neurons are otherwise never trained
     ///   (READING-NOTES.md); synthetic map: 0.78 px to 0.17 px.
     /// - Weight and pressure rates (8.10, 8.13; 8.26, 8.28 for stage 2) decay with time

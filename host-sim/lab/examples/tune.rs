@@ -61,6 +61,12 @@ fn main() {
         if let Some(x) = env("ALPHA") {
             s.alpha_range = x;
         }
+        if let Some(x) = env("JINIT") {
+            s.init.jacobian = x;
+        }
+        if let Some(x) = env("SECANT") {
+            s.trial_secant = x;
+        }
         if let Some(x) = env("MINDV") {
             s.min_dv = x;
         }
@@ -87,6 +93,7 @@ fn main() {
     let seeds = env("SEEDS").unwrap_or(3.0) as u64;
     let trials = env("TRIALS").unwrap_or(300.0) as usize;
     let (mut f, mut ft, mut nf, mut fm, mut g) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let mut bym = [0.0f32; 7];
     let seed0 = env("SEED0").unwrap_or(0.0) as u64;
     assert!(
         seed0 + seeds < 100,
@@ -111,6 +118,9 @@ fn main() {
             100.0 * r.grasp_success_rate,
             r.eval.stage1_error_by_move_px.iter().take(5).map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>()
         );
+        for (a, b) in bym.iter_mut().zip(&r.deployment.combined_true_px) {
+            *a += b / seeds as f32;
+        }
         f += r.final_error_px;
         ft += r.final_error_true_px;
         nf += r.noise_floor_px;
@@ -118,6 +128,12 @@ fn main() {
         g += r.grasp_success_rate;
     }
     let n = seeds as f32;
+    println!(
+        "BYMOVE {:?}",
+        bym.iter()
+            .map(|x| (x * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
+    );
     println!(
         "MEAN final {:.3} true {:.3} floor {:.3} ratio {:.3} moves {:.2} grasp {:.0}%",
         f / n,
