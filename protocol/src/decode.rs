@@ -27,7 +27,8 @@ use std::collections::BTreeMap;
 use crate::envelope::Envelope;
 use crate::error::Error;
 use crate::frame::CanFrame;
-use crate::id::{CanId, MessageKind};
+use crate::id::CanId;
+use crate::kind::MessageKind;
 use crate::reassembly::{Reassembler, DEFAULT_STALE_MS};
 use crate::segment::segment_count;
 

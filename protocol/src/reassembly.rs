@@ -6,7 +6,8 @@
 use crate::envelope::Envelope;
 use crate::error::{Error, Result};
 use crate::frame::{fd_len_for, CanFrame};
-use crate::id::{CanId, MessageKind};
+use crate::id::CanId;
+use crate::kind::MessageKind;
 use crate::message::Message;
 use crate::segment::{
     message_crc, segment_count, segment_len, CRC_LEN, FIRST_DATA, NEXT_DATA, STREAM_MAX,
