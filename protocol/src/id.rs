@@ -13,15 +13,24 @@ use crate::node::NodeId;
 /// Highest 11-bit standard id.
 pub const MAX_STANDARD_ID: u16 = 0x7FF;
 
-impl MessageKind {
-    /// The kind with this 7-bit code.
-    pub const fn from_code(code: u8) -> Result<MessageKind> {
-        match MessageKind::with_code(code) {
-            Some(kind) => Ok(kind),
-            None => Err(Error::UnknownKind(code)),
+/// [`MessageKind::from_code`] from the table of kinds (`kind.rs`).
+macro_rules! decode_kinds {
+    ($($(#[$m:meta])* $name:ident = $code:expr, $cmd:expr;)*) => {
+        impl MessageKind {
+            /// The kind with this 7-bit code.
+            pub const fn from_code(code: u8) -> Result<MessageKind> {
+                match code {
+                    $($code => Ok(MessageKind::$name),)*
+                    _ => Err(Error::UnknownKind(code)),
+                }
+            }
         }
-    }
+    };
+}
 
+crate::kind::with_kinds!(decode_kinds);
+
+impl MessageKind {
     /// Whether `node` may appear in the node field of this kind.
     pub const fn allows(self, node: NodeId) -> bool {
         use MessageKind as K;
