@@ -11,7 +11,7 @@
 //!
 //! The node guards its learned tables against destructive operations that do not carry a
 //! fresh nonce ([`ControllerNode::seed_guard`], `guard.rs`), and serves them over the bus
-//! and to their store (`tables.rs`; a controller with a store is a
+//! and to their store (`node/tables.rs`; a controller with a store is a
 //! [`trn_controller::WithStore`]).
 //!
 //! One trial on the bus is specified in `protocol/SPEC.md`.
@@ -27,7 +27,6 @@ mod node;
 mod outbox;
 mod service;
 mod stats;
-mod tables;
 
 pub use codes::controller_error_code;
 pub use config::NodeConfig;

@@ -3,6 +3,10 @@
 //! every target may arrive more than once (the runner repeats it when no answer came), and a
 //! repeat of the trial in progress is ignored, a repeat of the trial just ended is answered
 //! with the same final messages again.
+//!
+//! Its parts are `impl ControllerNode` blocks in the modules below it: a session's
+//! configuration (`session.rs`), a trial (`trial.rs`), the tables over the bus and in their
+//! store (`tables.rs`, which also keeps the state of their saves and transfers).
 
 use trn_controller::{Control, FineMoves, Task};
 use trn_protocol as proto;
@@ -17,10 +21,12 @@ use crate::exchange::{GaveUp, Pending, ServoAnswer};
 use crate::guard::{op_code, Guard};
 use crate::outbox::{push, send, FrameError, Outbox};
 pub use crate::stats::NodeStats;
-use crate::tables::{learned, TableState};
 
 mod session;
+mod tables;
 mod trial;
+
+use tables::{learned, TableState};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PendingGrasp {

@@ -27,9 +27,9 @@ use std::collections::BTreeMap;
 use crate::envelope::Envelope;
 use crate::error::Error;
 use crate::frame::CanFrame;
-use crate::id::{CanId, MessageKind};
 use crate::reassembly::{Reassembler, DEFAULT_STALE_MS};
 use crate::segment::segment_count;
+use crate::{id::CanId, kind::MessageKind};
 
 /// What one frame was.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,7 @@
 
 use core::fmt;
 
-use crate::id::MessageKind;
+use crate::kind::MessageKind;
 
 /// Every failure the protocol crate can report.
 ///

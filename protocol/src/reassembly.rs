@@ -6,11 +6,11 @@
 use crate::envelope::Envelope;
 use crate::error::{Error, Result};
 use crate::frame::{fd_len_for, CanFrame};
-use crate::id::{CanId, MessageKind};
 use crate::message::Message;
 use crate::segment::{
     message_crc, segment_count, segment_len, CRC_LEN, FIRST_DATA, NEXT_DATA, STREAM_MAX,
 };
+use crate::{id::CanId, kind::MessageKind};
 
 /// Default stale timeout for an incomplete transfer, ms.
 pub const DEFAULT_STALE_MS: u32 = 100;

@@ -15,7 +15,7 @@
 use crate::envelope::{BusMode, Envelope};
 use crate::error::{Error, Result};
 use crate::frame::{fd_len_for, CanFrame, FD_MAX};
-use crate::id::MessageKind;
+use crate::kind::MessageKind;
 use crate::message::MESSAGE_BUDGET;
 
 /// Length of the trailing CRC of long messages.

@@ -8,7 +8,7 @@
 //! answering `StoreCommand{Status}` with `TablesStatus{Status}`; one that stays alive
 //! (heartbeats) and never answers it speaks version 3.
 
-use crate::id::MessageKind;
+use crate::kind::MessageKind;
 use crate::message::{Message, PointStatus};
 
 /// A version of this protocol that a node may speak.

@@ -1,5 +1,6 @@
 //! The simulator's configuration: every parameter with its unit, loaded from TOML
-//! (`host-sim/sim.toml` documents the defaults).
+//! (`host-sim/sim.toml` documents the defaults). The valid ranges, and
+//! [`SimConfig::validate`] that every load calls, are `validate.rs`'s.
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -421,12 +422,6 @@ impl SimConfig {
             .first()
             .map(|c| (c.resolution[0], c.resolution[1]))
             .unwrap_or((1024, 768))
-    }
-
-    /// Rejects configurations that cannot work, naming the key and its valid range
-    /// (`validate.rs` has every range).
-    pub fn validate(&self) -> Result<(), SimError> {
-        super::validate::validate(self)
     }
 }
 

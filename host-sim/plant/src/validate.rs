@@ -1,6 +1,7 @@
 //! The valid range of every simulator configuration value, checked at load with the key
 //! named: finite numbers, positive where physical, sizes bounded, and a physics step and
-//! settle time such that a move costs a bounded number of steps.
+//! settle time such that a move costs a bounded number of steps. Owns
+//! [`SimConfig::validate`], which the loaders and [`Plant::new`](crate::Plant::new) call.
 
 use super::camera::Camera;
 use super::config::SimConfig;
@@ -43,6 +44,14 @@ fn at_least_zero(key: &str, x: f64, hi: f64) -> Result<(), Error> {
 
 fn between(key: &str, x: f64, lo: f64, hi: f64) -> Result<(), Error> {
     Check { key }.within(x, lo, hi, false)
+}
+
+impl SimConfig {
+    /// Rejects configurations that cannot work, naming the key and its valid range
+    /// (`validate.rs` has every range).
+    pub fn validate(&self) -> Result<(), Error> {
+        validate(self)
+    }
 }
 
 /// Checks every value of `c` (see the module).

@@ -7,10 +7,10 @@ use trn_controller::presets::{self, Ablation, ImageSize, Preset};
 use trn_controller::{Config, Control, Error as CtrlError, Law};
 use trn_protocol::{BusMode, GuardOp, Mode, NodeId, SessionConfig};
 
+use super::tables::learned;
 use super::{error, ControllerNode};
 use crate::codes;
 use crate::outbox::{push, Outbox};
-use crate::tables::learned;
 
 impl ControllerNode {
     /// Applies a session's run parameters (SPEC.md 3.2): in `Idle` with no trial in progress,

@@ -6,11 +6,11 @@ use trn_controller::{Command, Control, Error as CtrlError, FineMoves, ObserveKin
 use trn_protocol as proto;
 use trn_protocol::{CaptureKind, Mode, NodeId, PointStatus, TrialReport};
 
+use super::tables::learned;
 use super::{error, ControllerNode, FINAL};
 use crate::codes;
 use crate::exchange::Pending;
 use crate::outbox::{push, Outbox};
-use crate::tables::learned;
 
 impl ControllerNode {
     /// True (and handled) when `trial` is the trial in progress (ignored: it is being

@@ -9,7 +9,7 @@ use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::id::MessageKind;
+use crate::kind::MessageKind;
 
 /// Budget for any message's postcard encoding: 62 bytes, so that any message fits one
 /// CAN FD frame (64 bytes) even with a 2-byte header.

@@ -12,9 +12,9 @@ use trn_protocol::{
     TablesEvent, TablesStatus, CHUNK,
 };
 
+use super::{error, ControllerNode};
 use crate::codes::{self, table_op, table_reason};
 use crate::guard::op_code;
-use crate::node::{error, ControllerNode};
 use crate::outbox::{push, Outbox};
 
 mod write;
