@@ -14,6 +14,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::Path;
 use trn_controller::rank::RankScratch;
 use trn_controller::{checkpoint, Config, Controller, StageStep};
+use trn_lab::targets::dist;
 use trn_plant::{Plant, SimConfig};
 
 /// Simulated time after a command before the reading: long enough for the ringing and the
@@ -29,14 +30,6 @@ fn at_rest(plant: &mut Plant, p: &[f32; 5]) -> Option<[f32; 8]> {
     plant.command(&p);
     plant.advance(REST_S);
     plant.observe_gripper_lights_true().reported_vector()
-}
-
-fn dist(a: &[f32], b: &[f32]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f32>()
-        .sqrt()
 }
 
 fn mean(v: &[f32]) -> f32 {
