@@ -55,7 +55,7 @@ where
 
     /// True while the controller still beats after `Idle`; false when it went silent (it
     /// ended its loop).
-    fn still_running(&mut self) -> Result<bool> {
+    pub(super) fn still_running(&mut self) -> Result<bool> {
         let silence = self.runner.timing().silence;
         let until = self.runner.rig().now() + self.patience.alive.max(Duration::from_millis(300));
         let j = self.runner.rig_mut().take_journal();
@@ -82,7 +82,7 @@ where
     }
 
     /// Sends `msg`; what came until `done`, then quiet.
-    fn exchange(
+    pub(super) fn exchange(
         &mut self,
         msg: Message,
         done: impl Fn(&[Envelope]) -> bool,
