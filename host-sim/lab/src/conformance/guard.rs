@@ -48,9 +48,7 @@ where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     fn skip_from(&mut self, first: usize, why: &str) {
-        for name in &CHECKS[first..] {
-            self.skip(name, why);
-        }
+        self.skip_each(&CHECKS[first..], why);
     }
 
     /// True while the controller still beats after `Idle`; false when it went silent (it

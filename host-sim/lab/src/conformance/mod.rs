@@ -163,6 +163,13 @@ where
         self.v3
     }
 
+    /// The checks `names` not applicable to this controller, and why.
+    fn skip_each(&mut self, names: &[&str], why: &str) {
+        for name in names {
+            self.skip(name, why);
+        }
+    }
+
     /// A check not applicable to this controller, and why.
     fn skip(&mut self, name: &str, why: &str) {
         self.checks.push(Check {

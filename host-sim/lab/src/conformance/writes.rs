@@ -15,7 +15,7 @@ use trn_protocol::{
     TableWriteBegin, TableWriteChunk, TableWriteEnd, TablesEvent, TablesStatus,
 };
 
-use super::journal::{echoed, errors, missing_error};
+use super::journal::{echoed, errors, missing_error, refused_unacknowledged};
 use super::{nothing_moved, Suite};
 use crate::error::Result;
 
@@ -61,9 +61,7 @@ where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     fn skip_writes(&mut self, first: usize, why: &str) {
-        for name in &CHECKS[first..] {
-            self.skip(name, why);
-        }
+        self.skip_each(&CHECKS[first..], why);
     }
 
     /// An answer to `msg` (an ack, an error, a status), then quiet: what came.
@@ -85,9 +83,7 @@ where
         }
         if self.v3 {
             // version 3 has `keep_tables` and detail 2, not the writes
-            for name in &CHECKS[..3] {
-                self.skip(name, super::V4_ONLY);
-            }
+            self.skip_each(&CHECKS[..3], super::V4_ONLY);
             return self.keep(session, None);
         }
         let Some(before) = self.status_now()? else {
@@ -176,17 +172,12 @@ where
             ..session
         };
         let j = self.exchange(other.into(), Self::error_seen(codes::CONFIG_REJECTED))?;
-        let mut p: Vec<String> = missing_error(
+        let p = refused_unacknowledged(
             &j,
             codes::CONFIG_REJECTED,
-            2,
+            codes::CONFIG_MISMATCH,
             "CONFIG_REJECTED (learned under another configuration)",
-        )
-        .into_iter()
-        .collect();
-        if echoed(&j) {
-            p.push("the configuration was acknowledged".into());
-        }
+        );
         self.verdict(CHECKS[3], p);
         let own = SessionConfig {
             keep_tables: true,
