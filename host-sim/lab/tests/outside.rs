@@ -6,7 +6,7 @@
 //! configuration it runs (the project preset, no ablation, the TRN, 1024 x 768 images) is the
 //! CRC-32 of SPEC.md 3.2.1's test vector, or a number of its own.
 //!
-//! The runner (SPEC.md 3.5, "What the runner sends about the tables") keeps tables whose
+//! The runner (SPEC.md 3.5, "What the host checks of the fingerprint") keeps tables whose
 //! announced fingerprint is the run's configuration's, seeds new ones under the run's when
 //! the tables never learned under another, then checks the fingerprint announced for the
 //! configuration accepted; anything else is refused naming both numbers.
@@ -91,11 +91,11 @@ fn serve(mut port: SerialSlcan, mut me: Outside, stop: Arc<AtomicBool>, seen: Ar
     let mut enc = Encoder::new(BusMode::Classic);
     let mut rx: Reassembler = Reassembler::new(DEFAULT_STALE_MS);
     let start = Instant::now();
-    let mut beat = Instant::now() - Duration::from_secs(1);
+    let mut beat: Option<Instant> = None;
     let mut counter = 0u8;
     while !stop.load(Ordering::Relaxed) {
-        if beat.elapsed() >= Duration::from_millis(100) {
-            beat = Instant::now();
+        if beat.is_none_or(|b| b.elapsed() >= Duration::from_millis(100)) {
+            beat = Some(Instant::now());
             counter = counter.wrapping_add(1);
             let hb = Heartbeat {
                 counter,
