@@ -14,8 +14,9 @@
 //! - Studies of many runs ([`study`]: study files, runs in parallel, one file per finished
 //!   run, resume, shards and their merge): [`compare`], [`sweep`], [`lifelong`]; the
 //!   [`conformance`] suite.
-//! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
-//!   and the simulator's state beside them ([`sim_state`]).
+//! - Files: every output follows one rule ([`output`]; the rule itself, a leaf below every
+//!   writer: [`fsio`]); checkpoints ([`checkpoint_file`]) and the simulator's state beside
+//!   them ([`sim_state`], with the curve a continued run takes over: [`history`]).
 //! - The controller's learned tables: [`board`] boots the host's controller with its store
 //!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
 //!   checkpoint in, and begins a session on a controller that may hold learned tables.
@@ -25,6 +26,8 @@ pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;
 mod error;
+pub mod fsio;
+pub mod history;
 pub mod lifelong;
 pub mod metrics;
 pub mod model_based;

@@ -336,7 +336,7 @@ pub fn run(
     json: Option<&std::path::Path>,
 ) -> Result<Ran> {
     if let Some(p) = json {
-        crate::output::check_path(p, crate::output::Kind::Json)?;
+        crate::fsio::check_path(p, crate::fsio::Kind::Json)?;
     }
     let outcome = execute(study, opts, watch)?;
     if !outcome.failed.is_empty() {
@@ -365,7 +365,7 @@ pub fn run(
     }
     let finished = finish(outcome.into_files())?;
     if let Some(p) = json {
-        crate::output::write_json(p, &crate::provenance::Stamped::new(&finished.json))?;
+        crate::fsio::write_json(p, &crate::provenance::Stamped::new(&finished.json))?;
     }
     ran.finished = Some(finished);
     Ok(ran)

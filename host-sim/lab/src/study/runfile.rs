@@ -1,6 +1,6 @@
 //! One finished run of a study as a file: the study's header, the run's place and row, and
 //! its whole report (with the run's specification in it). Written whole or not at all
-//! ([`crate::output::write_durably`]) the moment the run ends; read back to resume a study
+//! ([`crate::fsio::write_durably`]) the moment the run ends; read back to resume a study
 //! and to merge the shards of one.
 
 use std::path::{Path, PathBuf};
