@@ -338,7 +338,8 @@ pub(crate) fn lock_beside(path: &Path) -> Result<File> {
     }
 }
 
-fn parent(path: &Path) -> PathBuf {
+/// The directory of a file (`.` for a bare name).
+pub(crate) fn parent(path: &Path) -> PathBuf {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

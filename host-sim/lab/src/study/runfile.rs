@@ -178,3 +178,15 @@ fn clip(items: &[String]) -> String {
         format!("{}, ... {}", items[..10].join(", "), items[items.len() - 1])
     }
 }
+
+/// The runs of a study grouped by row, in the study's order.
+pub(crate) fn by_row(files: &[RunFile]) -> Vec<Vec<&RunFile>> {
+    let mut rows: Vec<Vec<&RunFile>> = vec![];
+    for f in files {
+        match rows.iter_mut().find(|r| r[0].row == f.row) {
+            Some(r) => r.push(f),
+            None => rows.push(vec![f]),
+        }
+    }
+    rows
+}
