@@ -17,6 +17,8 @@
 //! - Files: every output follows one rule ([`output`]; the rule itself, a leaf below every
 //!   writer: [`fsio`]); checkpoints ([`checkpoint_file`]) and the simulator's state beside
 //!   them ([`sim_state`], with the curve a continued run takes over: [`history`]).
+//! - Figures as text ([`format`](mod@format): the studies' tables, the lines of the summary the command
+//!   line prints).
 //! - The controller's learned tables: [`board`] boots the host's controller with its store
 //!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
 //!   checkpoint in, and begins a session on a controller that may hold learned tables.
@@ -26,6 +28,7 @@ pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;
 mod error;
+pub mod format;
 pub mod fsio;
 pub mod history;
 pub mod lifelong;
@@ -48,11 +51,18 @@ mod session;
 pub mod sim_state;
 pub mod spec;
 pub mod study;
-pub mod summary;
 pub mod sweep;
 pub mod tables;
 pub mod targets;
 pub mod trial_csv;
+
+/// The helpers of the printed summary under the names they had when the lab printed it
+/// (the summary is the command line's now): [`format::px`], [`format::protocol_line`],
+/// [`report::trials_to_reach`].
+pub mod summary {
+    pub use crate::format::{protocol_line, px};
+    pub use crate::report::trials_to_reach;
+}
 
 pub use error::{io, LabError, Result};
 pub use observe::{Observer, Unobserved};

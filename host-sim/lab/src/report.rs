@@ -416,9 +416,32 @@ pub fn smooth(x: &[f32], w: usize) -> Vec<f32> {
         .collect()
 }
 
+/// First trial after which the centred 21-trial mean stays below `limit`, if any.
+pub fn trials_to_reach(curve: &[f32], limit: f32) -> Option<usize> {
+    let s = smooth(curve, 21);
+    let mut first = None;
+    for (i, &e) in s.iter().enumerate() {
+        if e < limit {
+            first.get_or_insert(i + 1);
+        } else {
+            first = None;
+        }
+    }
+    first
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reach_is_the_first_trial_after_which_the_mean_stays_below() {
+        let mut c = vec![10.0f32; 50];
+        c.extend(vec![1.0f32; 100]);
+        let n = trials_to_reach(&c, 3.0).unwrap();
+        assert!(n > 45 && n < 60, "{n}");
+        assert_eq!(trials_to_reach(&[5.0; 30], 3.0), None);
+    }
 
     #[test]
     fn curves_and_json_round_trip() {

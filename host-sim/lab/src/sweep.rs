@@ -11,8 +11,8 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::summary::px;
 use crate::error::{LabError, Result};
+use crate::format::px;
 use crate::fsio::parent;
 use crate::study::file::{Overrides, StudyFile};
 use crate::study::runfile::by_row;
