@@ -53,7 +53,6 @@ pub mod spec;
 pub mod study;
 pub mod sweep;
 pub mod tables;
-pub mod targets;
 pub mod trial_csv;
 
 /// The helpers of the printed summary under the names they had when the lab printed it
@@ -69,3 +68,5 @@ pub use observe::{Observer, Unobserved};
 pub use provenance::Provenance;
 pub use report::Report;
 pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};
+/// Where targets come from: the plant's ([`trn_plant::targets`]), here under the path it had.
+pub use trn_plant::targets;

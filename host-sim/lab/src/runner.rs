@@ -15,9 +15,9 @@ use trn_protocol::{
 
 use super::records::{Phase, TrialKind, TrialRecord};
 use super::rig::{Event, Rig};
-use super::targets::{self, HeldOut, Target};
 use crate::error::{LabError as Error, Result};
 pub use crate::report::RunnerStats;
+use trn_plant::targets::{self, HeldOut, Target};
 
 /// Where a trial's target comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]

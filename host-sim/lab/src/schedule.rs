@@ -21,9 +21,9 @@ use super::records::{Phase, RunLog, TrialKind, TrialRecord};
 use super::runner::{Runner, Source, TrialSpec};
 use super::scoring::{self, combined};
 use super::sim_state::SimState;
-use super::targets::HeldOut;
 use crate::error::Result;
 pub use crate::spec::Plan;
+use trn_plant::targets::HeldOut;
 
 /// The held-out sets of a run, drawn once from the run's seed.
 struct HeldOutSets {

@@ -41,11 +41,11 @@ use trn_protocol::{
 };
 
 use super::runner::Runner;
-use super::targets::{self, Target};
 use crate::error::{LabError, Result};
 pub use crate::report::Check;
 use crate::tables::Spoken;
 use journal::{errors, has_error, heartbeat_problems, moves, reports};
+use trn_plant::targets::{self, Target};
 
 /// How long to wait: for an answer that must come, and for quiet after an answer (to see
 /// that nothing else follows).
