@@ -2,7 +2,8 @@
 //! compare, sweep, lifelong, study, merge, conformance), `controller-node` (the controller
 //! as a process on SocketCAN), `sim-pictures`; options ([`cli`]) turned into the lab's
 //! specifications ([`args`]), the progress bar and interrupts of a run ([`progress`]) and of
-//! a study ([`studies`]), plots ([`plot`], [`picture`]).
+//! a study ([`studies`]), the summary printed after a run ([`summary`]), plots ([`plot`],
+//! [`picture`]).
 //!
 //! The layers below, each usable alone: `trn-plant` (the simulated arm and its CAN nodes),
 //! `trn-transport` (the buses and where the controller runs), `trn-lab` (runs, studies,
@@ -19,5 +20,6 @@ pub mod picture;
 pub mod plot;
 pub mod progress;
 pub mod studies;
+pub mod summary;
 
 pub use error::{CliError, Result};

@@ -3,7 +3,7 @@
 //!
 //! `reset(seed)` builds the plant from `seed`, draws a deployment-style target (a twin arm
 //! in the same state goes from rest along its own random path to random pressures; its
-//! lights, read by the camera processor, are the target: `trn_lab::targets::HeldOut`) and
+//! lights, read by the camera processor, are the target: `trn_plant::targets::HeldOut`) and
 //! moves the arm to a start pose of its own (stage 2: with the target's wrist pressures,
 //! since stage 2 drives joints 0..=2 only). `step(action)` commands the pressures through
 //! the servo drives' 12-bit commands and reads the cameras as the camera processor does
@@ -14,9 +14,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
-use trn_lab::targets::{HeldOut, Target};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::markers::Tracker;
+use trn_plant::targets::{HeldOut, Target};
 use trn_plant::vec3::V3;
 use trn_plant::{Plant, PointStatus, Readings, SimConfig};
 

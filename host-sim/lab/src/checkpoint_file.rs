@@ -96,7 +96,7 @@ pub fn image_for(
 /// Writes a checkpoint image (read out of a controller, verified) durably.
 pub fn save_image(image: &[u8], path: &Path) -> Result<()> {
     checkpoint::verify(image).map_err(checkpoint_err(path))?;
-    crate::output::write_durably(path, image)
+    crate::fsio::write_durably(path, image)
 }
 
 /// [`save_with_state`] for an image read out of a controller.
@@ -150,7 +150,7 @@ pub fn crc_of(bytes: &[u8]) -> u32 {
 pub fn save(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<()> {
     let mut buf = vec![0u8; checkpoint::MAX_SIZE];
     let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
-    crate::output::write_durably(path, &buf[..n])
+    crate::fsio::write_durably(path, &buf[..n])
 }
 
 /// Writes the pair a run continues from: the controller's checkpoint at `path`, then the

@@ -16,7 +16,7 @@ pub enum LabError {
     Usage(String),
     /// The plant (its configuration).
     #[error(transparent)]
-    Plant(#[from] PlantError),
+    Plant(PlantError),
     /// The bus or the controller's process.
     #[error(transparent)]
     Transport(#[from] TransportError),
@@ -75,6 +75,17 @@ pub enum LabError {
         /// Checks run.
         checks: usize,
     },
+}
+
+/// The plant's errors as they are, but for [`PlantError::NoTarget`] (the targets are the
+/// plant's): the lab's own [`LabError::NoTarget`], as before the targets moved there.
+impl From<PlantError> for LabError {
+    fn from(e: PlantError) -> Self {
+        match e {
+            PlantError::NoTarget(draws) => LabError::NoTarget(draws),
+            e => LabError::Plant(e),
+        }
+    }
 }
 
 impl From<trn_protocol::Error> for LabError {

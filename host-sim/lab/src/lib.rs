@@ -14,8 +14,11 @@
 //! - Studies of many runs ([`study`]: study files, runs in parallel, one file per finished
 //!   run, resume, shards and their merge): [`compare`], [`sweep`], [`lifelong`]; the
 //!   [`conformance`] suite.
-//! - Files: every output follows one rule ([`output`]); checkpoints ([`checkpoint_file`])
-//!   and the simulator's state beside them ([`sim_state`]).
+//! - Files: every output follows one rule ([`output`]; the rule itself, a leaf below every
+//!   writer: [`fsio`]); checkpoints ([`checkpoint_file`]) and the simulator's state beside
+//!   them ([`sim_state`], with the curve a continued run takes over: [`history`]).
+//! - Figures as text ([`format`](mod@format): the studies' tables, the lines of the summary the command
+//!   line prints).
 //! - The controller's learned tables: [`board`] boots the host's controller with its store
 //!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
 //!   checkpoint in, and begins a session on a controller that may hold learned tables.
@@ -25,6 +28,9 @@ pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;
 mod error;
+pub mod format;
+pub mod fsio;
+pub mod history;
 pub mod lifelong;
 pub mod metrics;
 pub mod model_based;
@@ -45,14 +51,22 @@ mod session;
 pub mod sim_state;
 pub mod spec;
 pub mod study;
-pub mod summary;
 pub mod sweep;
 pub mod tables;
-pub mod targets;
 pub mod trial_csv;
+
+/// The helpers of the printed summary under the names they had when the lab printed it
+/// (the summary is the command line's now): [`format::px`], [`format::protocol_line`],
+/// [`report::trials_to_reach`].
+pub mod summary {
+    pub use crate::format::{protocol_line, px};
+    pub use crate::report::trials_to_reach;
+}
 
 pub use error::{io, LabError, Result};
 pub use observe::{Observer, Unobserved};
 pub use provenance::Provenance;
 pub use report::Report;
 pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};
+/// Where targets come from: the plant's ([`trn_plant::targets`]), here under the path it had.
+pub use trn_plant::targets;

@@ -19,8 +19,8 @@ use trn_controller::Law;
 
 use super::report::SnapshotPoint;
 use super::schedule::Plan;
-use super::summary::px;
 use crate::error::{LabError as Error, Result};
+use crate::format::px;
 use crate::spec::{Command, Profile, RunSpec};
 use crate::study::{Finished, LifelongTable, Row, RunFile, Study, StudyHeader, Table};
 

@@ -4,8 +4,8 @@
 
 use trn_protocol::TrialReport;
 
-use super::targets::Target;
 use trn_plant::nodes::Capture;
+use trn_plant::targets::Target;
 use trn_plant::GraspScore;
 
 /// What kind of trial to run.

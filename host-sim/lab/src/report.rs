@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::scoring::combined;
+pub use crate::history::{History, SnapshotPoint};
+use crate::scoring::combined;
 
 /// One trial of the training curve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -135,40 +136,6 @@ pub struct Deployment {
     pub combined_measured_by_target_px: Vec<f32>,
 }
 
-/// One frozen snapshot of the learning curve.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct SnapshotPoint {
-    /// Training trials per network before the snapshot.
-    pub trial: usize,
-    /// Mean noise-free stage-1 error after each move (0 = coarse).
-    pub stage1_true_px: Vec<f32>,
-    /// The same for stage 2.
-    pub stage2_true_px: Vec<f32>,
-    /// The same combined.
-    pub combined_true_px: Vec<f32>,
-    /// Mean measured combined error after each move.
-    #[serde(default)]
-    pub combined_measured_px: Vec<f32>,
-    /// The camera-noise floor of the measured combined error.
-    #[serde(default)]
-    pub noise_floor_px: f32,
-    /// Trials of the snapshot that failed.
-    pub failed_trials: usize,
-    /// Grasps in the snapshot (0: none).
-    #[serde(default)]
-    pub grasps: usize,
-    /// Of those, grasps whose cylinder the twin arm (in the arm's present state of drift and
-    /// wear) can no longer hold or see: not targets, left out of the success rate.
-    #[serde(default)]
-    pub grasps_unreachable: usize,
-    /// Fraction of the other grasps that succeeded (NaN: none).
-    #[serde(default)]
-    pub grasp_success: f32,
-    /// Failed grasps by cause (as [`GraspSummary::failure_causes`]).
-    #[serde(default)]
-    pub grasp_failures: std::collections::BTreeMap<String, usize>,
-}
-
 /// A trial that failed, and why.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct FailedTrial {
@@ -205,11 +172,41 @@ pub struct BusReport {
     /// Frames sent, delivered, dropped, duplicated, corrupted, truncated, delayed.
     pub injected: Option<std::collections::BTreeMap<String, u64>>,
     /// The runner: trial starts and mode changes sent again, trials given up.
-    pub runner: super::runner::RunnerStats,
+    pub runner: RunnerStats,
     /// The controller node (in-process only): requests repeated, commands corrected after a
     /// drive confirmed another value, repeated targets, stale answers, dropped frames,
     /// aborted trials.
     pub controller: Option<std::collections::BTreeMap<String, u32>>,
+}
+
+/// Counters of the runner ([`crate::runner::Runner::stats`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RunnerStats {
+    /// Trial starts sent again after no answer.
+    pub target_repeats: u32,
+    /// Mode changes and session configurations sent again after no acknowledgement.
+    pub mode_repeats: u32,
+    /// Trials given up after every repeat.
+    pub given_up: u32,
+    /// Requests about the tables (their status, a nonce, a chunk) sent again after no
+    /// answer.
+    #[serde(default)]
+    pub table_repeats: u32,
+}
+
+/// One check of the conformance suite ([`crate::conformance`]) and its verdict.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Check {
+    /// What the specification requires.
+    pub name: String,
+    /// Whether the controller did it (a check not applicable counts as passed).
+    pub passed: bool,
+    /// What was seen when it did not; why it was not applicable.
+    pub detail: String,
+    /// Not applicable to this controller: a choice the specification leaves it made the
+    /// check impossible (it ended its loop at `Idle`; its tables never learn).
+    #[serde(default)]
+    pub skipped: bool,
 }
 
 /// The report of `trn train` / `trn eval` / `trn grasp` (`--report FILE.json`).
@@ -300,7 +297,7 @@ pub struct Report {
     pub spec: Option<crate::spec::RunSpec>,
     /// The conformance suite's checks (`trn conformance`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub conformance: Vec<super::conformance::Check>,
+    pub conformance: Vec<Check>,
     /// The protocol version the controller speaks (3 or 4, SPEC.md "Versions"): a version-3
     /// controller's tables are neither read, saved nor checked. None when no session was
     /// opened over the bus (a tuning configuration given to the controller directly).
@@ -345,22 +342,6 @@ impl Report {
         self.fine_moves.push(p.stage1_fine_moves);
         self.fine_moves_stage2.push(p.stage2_fine_moves);
     }
-}
-
-/// The training curve and snapshots of a report: what a continued run takes over from the
-/// run it continues.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct History {
-    /// Final error of each stage-1 training trial (pixels).
-    pub stage1_error_px: Vec<f32>,
-    /// Final error of each stage-2 training trial (pixels).
-    pub stage2_error_px: Vec<f32>,
-    /// Stage-1 fine moves per training trial.
-    pub fine_moves: Vec<u8>,
-    /// Stage-2 fine moves per training trial.
-    pub fine_moves_stage2: Vec<u8>,
-    /// The frozen snapshots.
-    pub learning_curve: Vec<SnapshotPoint>,
 }
 
 impl Report {
@@ -435,9 +416,32 @@ pub fn smooth(x: &[f32], w: usize) -> Vec<f32> {
         .collect()
 }
 
+/// First trial after which the centred 21-trial mean stays below `limit`, if any.
+pub fn trials_to_reach(curve: &[f32], limit: f32) -> Option<usize> {
+    let s = smooth(curve, 21);
+    let mut first = None;
+    for (i, &e) in s.iter().enumerate() {
+        if e < limit {
+            first.get_or_insert(i + 1);
+        } else {
+            first = None;
+        }
+    }
+    first
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reach_is_the_first_trial_after_which_the_mean_stays_below() {
+        let mut c = vec![10.0f32; 50];
+        c.extend(vec![1.0f32; 100]);
+        let n = trials_to_reach(&c, 3.0).unwrap();
+        assert!(n > 45 && n < 60, "{n}");
+        assert_eq!(trials_to_reach(&[5.0; 30], 3.0), None);
+    }
 
     #[test]
     fn curves_and_json_round_trip() {

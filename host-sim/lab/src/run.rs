@@ -1,7 +1,7 @@
 //! A run from its specification ([`RunSpec`]): checks it and its outputs, opens the bus the
 //! specification names with the controller on it (inline on the simulated clock, a
 //! `controller-node` process, the firmware in QEMU, or a board that is already there), runs
-//! the schedule or the conformance suite ([`crate::session`]) and writes what was asked.
+//! the schedule or the conformance suite (`session.rs`) and writes what was asked.
 
 use std::time::Instant;
 
@@ -203,7 +203,7 @@ pub fn run(spec: &RunSpec, observer: &mut dyn Observer) -> Result<Report> {
     report.wall_s = started.elapsed().as_secs_f64();
     outputs.write_report(&report)?;
     if let (Some(p), Some(csv)) = (&spec.outputs.csv, rows.csv()) {
-        crate::output::write_durably(p, csv.as_bytes())?;
+        crate::fsio::write_durably(p, csv.as_bytes())?;
     }
     Ok(report)
 }

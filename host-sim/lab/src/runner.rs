@@ -15,8 +15,9 @@ use trn_protocol::{
 
 use super::records::{Phase, TrialKind, TrialRecord};
 use super::rig::{Event, Rig};
-use super::targets::{self, HeldOut, Target};
 use crate::error::{LabError as Error, Result};
+pub use crate::report::RunnerStats;
+use trn_plant::targets::{self, HeldOut, Target};
 
 /// Where a trial's target comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,25 +108,29 @@ impl Refused {
                     _ => "invalid configuration",
                 }
             ),
-            Refused::Guard(d) => format!("refused {what}: {}", crate::tables::guard_refusal(d)),
+            Refused::Guard(d) => format!("refused {what}: {}", guard_refusal(d)),
             Refused::Unanswered(n) => format!("did not acknowledge {what} after {n} tries"),
         }
     }
 }
 
-/// Counters of the runner.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct RunnerStats {
-    /// Trial starts sent again after no answer.
-    pub target_repeats: u32,
-    /// Mode changes and session configurations sent again after no acknowledgement.
-    pub mode_repeats: u32,
-    /// Trials given up after every repeat.
-    pub given_up: u32,
-    /// Requests about the tables (their status, a nonce, a chunk) sent again after no
-    /// answer.
-    #[serde(default)]
-    pub table_repeats: u32,
+/// A `GUARD_REFUSED` detail in words.
+pub fn guard_refusal(detail: u32) -> String {
+    let op = match detail >> 8 {
+        1 => "re-seeding its tables",
+        2 => "writing tables in",
+        3 => "erasing its stored tables",
+        _ => "an operation",
+    };
+    let why = match detail & 0xFF {
+        1 => "it holds learned tables, and that needs a nonce it announced (pass --reset-tables to erase them, or keep them)",
+        2 => "the nonce came after its window",
+        3 => "the nonce was used before (a replay)",
+        4 => "the nonce is not the one it issued (a repeat crossed it)",
+        5 => "it cannot issue nonces (its generator was never seeded), so its learned tables cannot be replaced over the bus",
+        _ => "for a reason this runner does not know",
+    };
+    format!("{op} was refused by its guard: {why}")
 }
 
 impl<P> Runner<P>

@@ -14,71 +14,16 @@ use trn_controller::Config;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{CanFrame, Mode, FINE_MOVES_POLICY};
 
+use super::history::History;
 use super::metrics;
 use super::observe::Observer;
 use super::records::{Phase, RunLog, TrialKind, TrialRecord};
-use super::report::History;
 use super::runner::{Runner, Source, TrialSpec};
 use super::scoring::{self, combined};
 use super::sim_state::SimState;
-use super::targets::HeldOut;
 use crate::error::Result;
-
-/// How many trials of each kind a run has.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Plan {
-    /// Training trials per network (0: no training).
-    pub trials: usize,
-    /// Held-out targets per network.
-    pub eval_targets: usize,
-    /// Grasps.
-    pub grasps: usize,
-    /// The fixed budget of fine moves of the held-out evaluation (after the coarse move).
-    pub fine_moves: u8,
-    /// A frozen snapshot evaluation every this many training trials (0: none).
-    pub snapshot_every: usize,
-    /// Held-out targets per network in a snapshot (the first of the held-out set).
-    pub snapshot_targets: usize,
-    /// Grasps in a snapshot (the first of the held-out grasps; 0: none).
-    pub snapshot_grasps: usize,
-    /// Learning stops after this many training trials per network (the tables frozen, mode
-    /// `Mature`); the remaining training trials still move the arm, so drift and wear go on
-    /// as in a run that keeps learning. `None`: learning throughout.
-    pub learn_trials: Option<usize>,
-    /// Training trials per network learned before this run (a checkpoint's): the schedule
-    /// (priming, snapshots, `learn_trials`) continues from there.
-    pub first_trial: usize,
-    /// Continue the simulation of the run that wrote the checkpoint (its `.sim` file,
-    /// [`SimState`]): the same plant, training targets and held-out sets.
-    pub resume: bool,
-}
-
-impl Plan {
-    /// A plan with the default evaluation: 6 fine moves, a snapshot of 50 targets every 25
-    /// training trials.
-    pub const fn new(trials: usize, eval_targets: usize, grasps: usize) -> Plan {
-        Plan {
-            trials,
-            eval_targets,
-            grasps,
-            fine_moves: 6,
-            snapshot_every: 25,
-            snapshot_targets: 50,
-            snapshot_grasps: 0,
-            learn_trials: None,
-            first_trial: 0,
-            resume: false,
-        }
-    }
-
-    /// Trials on the bus in all (for the progress bar).
-    pub fn total(&self) -> usize {
-        let snapshots = self.trials.checked_div(self.snapshot_every).unwrap_or(0);
-        let per_snapshot = 2 * self.snapshot_targets.min(self.eval_targets)
-            + self.snapshot_grasps.min(self.grasps);
-        self.trials * 2 + snapshots * per_snapshot + self.eval_targets * 6 + self.grasps
-    }
-}
+pub use crate::spec::Plan;
+use trn_plant::targets::HeldOut;
 
 /// The held-out sets of a run, drawn once from the run's seed.
 struct HeldOutSets {

@@ -4,8 +4,8 @@
 use trn_protocol::TrialReport;
 
 use super::records::TrialRecord;
-use super::targets::dist;
 use trn_plant::nodes::Sight;
+use trn_plant::targets::dist;
 
 /// One stage of one trial, scored.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -8,7 +8,7 @@
 //! (`trn train --checkpoint-in C --continue`).
 //!
 //! File `C.sim` beside checkpoint `C`, written durably like it
-//! ([`crate::output::write_durably`]):
+//! ([`crate::fsio::write_durably`]):
 //!
 //! | bytes | content |
 //! |---|---|
@@ -23,7 +23,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{io, LabError as Error, Result};
-use crate::output::write_durably;
+use crate::fsio::write_durably;
 use trn_plant::{Plant, SimConfig};
 
 /// The format version this build writes and reads.
@@ -47,7 +47,7 @@ pub struct SimState {
     /// left: `--continue` without `--trials` runs them).
     pub trials_planned: usize,
     /// The training curve and the snapshots so far (a continued run reports them whole).
-    pub history: crate::report::History,
+    pub history: crate::history::History,
     /// The runner's generator of training targets and start poses.
     pub runner_rng: Xoshiro256PlusPlus,
     /// The runner's next trial number.

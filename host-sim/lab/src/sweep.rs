@@ -11,10 +11,11 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::compare::{by_row, parent};
-use super::summary::px;
 use crate::error::{LabError, Result};
+use crate::format::px;
+use crate::fsio::parent;
 use crate::study::file::{Overrides, StudyFile};
+use crate::study::runfile::by_row;
 use crate::study::stats::{Spread, Worse};
 use crate::study::{Finished, RunFile, Study};
 

@@ -172,7 +172,7 @@ mod tests {
             kind: TrialKind::Stage2 { learn: false },
             phase: Phase::Snapshot(25),
             fine_moves: 6,
-            target: crate::targets::Target::NONE,
+            target: trn_plant::targets::Target::NONE,
             target_seen: false,
             captures: vec![],
             reports: vec![],

@@ -20,6 +20,7 @@ pub mod nodes;
 pub mod random;
 mod readings;
 pub mod stereo;
+pub mod targets;
 mod validate;
 pub mod vec3;
 

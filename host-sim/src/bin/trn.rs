@@ -4,11 +4,12 @@
 
 use clap::Parser;
 use std::process::ExitCode;
-use trn_lab::{lifelong, run, summary, Command, RunSpec};
+use trn_lab::{lifelong, run, Command, RunSpec};
 use trn_sim::cli::{Cli, Cmd, Common};
 use trn_sim::live::{Both, LiveStream};
 use trn_sim::progress::{Interrupts, Progress};
 use trn_sim::studies;
+use trn_sim::summary;
 use trn_sim::{CliError, Result};
 
 /// Runs one specification with the progress bar and the interrupts (and the live view,

@@ -13,9 +13,11 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use super::report::Report;
-use super::summary::px;
 use crate::error::Result;
+use crate::format::px;
+use crate::fsio::parent;
 use crate::study::file::{Overrides, StudyFile};
+use crate::study::runfile::by_row;
 use crate::study::stats::{Spread, Tail, Worse};
 use crate::study::{Finished, RunFile, Study};
 pub use tables::{ratio_table, table};
@@ -46,14 +48,6 @@ impl CompareSpec {
             ),
         };
         file.study(&dir, &self.over, Some(&self.out))
-    }
-}
-
-/// The directory of a file (`.` for a bare name).
-pub(crate) fn parent(p: &std::path::Path) -> PathBuf {
-    match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
     }
 }
 
@@ -230,18 +224,6 @@ impl Row {
             summary,
         }
     }
-}
-
-/// The runs of a study grouped by row, in the study's order.
-pub(crate) fn by_row(files: &[RunFile]) -> Vec<Vec<&RunFile>> {
-    let mut rows: Vec<Vec<&RunFile>> = vec![];
-    for f in files {
-        match rows.iter_mut().find(|r| r[0].row == f.row) {
-            Some(r) => r.push(f),
-            None => rows.push(vec![f]),
-        }
-    }
-    rows
 }
 
 /// The comparison's rows, table and JSON from every run of the study.

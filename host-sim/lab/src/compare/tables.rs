@@ -2,8 +2,8 @@
 //! row as a ratio to the oracle's when the oracle has a row.
 
 use super::{Row, Summary};
+use crate::format::px;
 use crate::study::stats::Spread;
-use crate::summary::px;
 
 /// The markdown table of `rows`: each cell the mean ± the standard deviation over the seeds
 /// and, in brackets, the worst seed; the last column the per-target tail.

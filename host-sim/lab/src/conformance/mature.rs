@@ -11,7 +11,7 @@ use super::journal::{
 };
 use super::{nothing_moved, stage1, stage2, Suite, STAGE1_JOINTS, STAGE2_JOINTS};
 use crate::error::Result;
-use crate::targets::Target;
+use trn_plant::targets::Target;
 
 const REPEATED_GRASP: &str = "A repeated start of the finished grasp is answered once: both reports and one GripperCommand{close}, no move";
 

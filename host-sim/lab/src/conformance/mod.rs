@@ -43,25 +43,11 @@ use trn_protocol::{
 };
 
 use super::runner::Runner;
-use super::targets::{self, Target};
 use crate::error::{LabError, Result};
+pub use crate::report::Check;
 use crate::tables::Spoken;
 use journal::{errors, has_error, heartbeat_problems, moves, reports};
-
-/// One check of the suite and its verdict.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Check {
-    /// What the specification requires.
-    pub name: String,
-    /// Whether the controller did it (a check not applicable counts as passed).
-    pub passed: bool,
-    /// What was seen when it did not; why it was not applicable.
-    pub detail: String,
-    /// Not applicable to this controller: a choice the specification leaves it made the
-    /// check impossible (it ended its loop at `Idle`; its tables never learn).
-    #[serde(default)]
-    pub skipped: bool,
-}
+use trn_plant::targets::{self, Target};
 
 /// How long to wait: for an answer that must come, and for quiet after an answer (to see
 /// that nothing else follows).

@@ -95,7 +95,7 @@ pub fn failure(r: &TrialRecord) -> Option<Failure> {
 mod tests {
     use super::*;
     use crate::records::{Phase, TrialKind};
-    use crate::targets::Target;
+    use trn_plant::targets::Target;
 
     fn aborted(errors: &[(u16, u32)]) -> TrialRecord {
         TrialRecord {

@@ -6,7 +6,7 @@
 //!   takes it, from its specification alone (its seed, plant and controller); workers share
 //!   nothing but the run folder, where each run has a file of its own.
 //! - **Nothing finished is lost.** A run's file is written whole or not at all
-//!   ([`crate::output::write_durably`]) as soon as the run ends; a run that fails is
+//!   ([`crate::fsio::write_durably`]) as soon as the run ends; a run that fails is
 //!   reported and the others go on; a stop request (an interrupt) lets the runs in progress
 //!   finish and starts no other.
 //! - **Resume.** With `resume`, a job whose file is there and holds its run specification
@@ -20,8 +20,8 @@ use rayon::prelude::*;
 use super::runfile::RunFile;
 use super::{Job, Shard, Study};
 use crate::error::{io, LabError, Result};
+use crate::fsio::{self, Kind};
 use crate::observe::{Observer, Unobserved};
-use crate::output::{self, Kind};
 
 /// How a study runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -105,7 +105,7 @@ pub fn execute(study: &Study, opts: &Options, watch: &dyn Watch) -> Result<Outco
     let selected = study.select(opts.shard);
     std::fs::create_dir_all(&opts.runs).map_err(io(&opts.runs))?;
     if let Some(j) = selected.first() {
-        output::check_path(&opts.runs.join(j.file_name()), Kind::Json)?;
+        fsio::check_path(&opts.runs.join(j.file_name()), Kind::Json)?;
     }
     let mut outcome = Outcome::default();
     let mut done: Vec<Option<RunFile>> = vec![None; selected.len()];
@@ -186,7 +186,7 @@ fn resumable(study: &Study, job: &Job, path: &Path, watch: &dyn Watch) -> Option
     }
     // the same run in a study that changed around it: its place and header are this study's
     let bytes = current.to_json().ok()?;
-    match output::write_durably(path, &bytes).and_then(|_| RunFile::parse(&bytes, path)) {
+    match fsio::write_durably(path, &bytes).and_then(|_| RunFile::parse(&bytes, path)) {
         Ok(f) => Some(f),
         Err(e) => {
             watch.note(&format!("{name}: cannot rewrite ({e}), run again"));
@@ -212,7 +212,7 @@ fn run_one(study: &Study, job: &Job, runs: &Path, watch: &dyn Watch) -> Step {
     let path = runs.join(job.file_name());
     let file = RunFile::of(&study.header, job, report);
     let written = file.to_json().and_then(|bytes| {
-        output::write_durably(&path, &bytes)?;
+        fsio::write_durably(&path, &bytes)?;
         // what a resumed study or a merge will read: the table is made from this
         RunFile::parse(&bytes, &path)
     });

@@ -229,7 +229,7 @@ impl StudyFile {
                 let text =
                     toml::to_string(&spec.plant).map_err(|e| LabError::Usage(e.to_string()))?;
                 std::fs::create_dir_all(out).map_err(io(out))?;
-                crate::output::write_durably(&path, text.as_bytes())?;
+                crate::fsio::write_durably(&path, text.as_bytes())?;
                 spec.plant_name = Some(path.display().to_string());
             }
             for &seed in &seeds {

@@ -1,6 +1,6 @@
 //! One finished run of a study as a file: the study's header, the run's place and row, and
 //! its whole report (with the run's specification in it). Written whole or not at all
-//! ([`crate::output::write_durably`]) the moment the run ends; read back to resume a study
+//! ([`crate::fsio::write_durably`]) the moment the run ends; read back to resume a study
 //! and to merge the shards of one.
 
 use std::path::{Path, PathBuf};
@@ -177,4 +177,16 @@ fn clip(items: &[String]) -> String {
     } else {
         format!("{}, ... {}", items[..10].join(", "), items[items.len() - 1])
     }
+}
+
+/// The runs of a study grouped by row, in the study's order.
+pub(crate) fn by_row(files: &[RunFile]) -> Vec<Vec<&RunFile>> {
+    let mut rows: Vec<Vec<&RunFile>> = vec![];
+    for f in files {
+        match rows.iter_mut().find(|r| r[0].row == f.row) {
+            Some(r) => r.push(f),
+            None => rows.push(vec![f]),
+        }
+    }
+    rows
 }

@@ -5,8 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::format::px;
 use crate::report::mean;
-use crate::summary::px;
 
 /// Which way a figure is worse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

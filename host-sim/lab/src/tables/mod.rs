@@ -1,6 +1,6 @@
 //! A controller's learned tables over the bus, from the runner's side (protocol/SPEC.md 3.4
 //! and 3.5): their status ([`status`]), the guard's nonces ([`nonce`]), reading the
-//! checkpoint image out ([`read`]) and writing one in ([`write`]), and what the controller's
+//! checkpoint image out ([`read`]) and writing one in ([`write`](fn@write)), and what the controller's
 //! refusals mean in words. Every request is repeated after the run's reply timeout when no
 //! answer comes, and a transfer resumes where the controller says it stands, so a lost,
 //! duplicated, reordered or corrupted frame costs a repeat, never a wrong table.
@@ -30,6 +30,7 @@ pub use write::write;
 
 use crate::error::{LabError, Result};
 use crate::rig::Event;
+pub use crate::runner::guard_refusal;
 use crate::runner::Runner;
 
 /// How many requests of a transfer (chunks read, chunks written) are in flight at once: a
@@ -217,25 +218,6 @@ pub(crate) fn retry_with_new_nonce(detail: u32) -> bool {
             || r == trn_node::Refusal::Used as u32
             || r == trn_node::Refusal::Wrong as u32
     )
-}
-
-/// A `GUARD_REFUSED` detail in words.
-pub fn guard_refusal(detail: u32) -> String {
-    let op = match detail >> 8 {
-        1 => "re-seeding its tables",
-        2 => "writing tables in",
-        3 => "erasing its stored tables",
-        _ => "an operation",
-    };
-    let why = match detail & 0xFF {
-        1 => "it holds learned tables, and that needs a nonce it announced (pass --reset-tables to erase them, or keep them)",
-        2 => "the nonce came after its window",
-        3 => "the nonce was used before (a replay)",
-        4 => "the nonce is not the one it issued (a repeat crossed it)",
-        5 => "it cannot issue nonces (its generator was never seeded), so its learned tables cannot be replaced over the bus",
-        _ => "for a reason this runner does not know",
-    };
-    format!("{op} was refused by its guard: {why}")
 }
 
 /// A `TABLES_FAILED` detail in words.

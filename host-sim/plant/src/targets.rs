@@ -13,8 +13,9 @@
 
 use rand_core::RngCore;
 
-use crate::error::{LabError as Error, Result};
-use trn_plant::{Cylinder, Plant, Pose, Readings};
+use crate::{Cylinder, Plant, PlantError as Error, Pose, Readings};
+
+type Result<T> = std::result::Result<T, Error>;
 
 /// A trial's target, with its ground truth.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,7 +49,7 @@ impl Target {
         c_true: [f32::NAN; 4],
         noise_v: f32::NAN,
         noise_c: f32::NAN,
-        pose: trn_plant::Pose::NONE,
+        pose: Pose::NONE,
         pressures: [f32::NAN; 5],
         cylinder: None,
     };

@@ -1,47 +1,14 @@
-//! The summary printed at the end of a run: the deployment-style evaluation with the fixed
+//! The summary `trn` prints at the end of a run: the deployment-style evaluation with the fixed
 //! move budget first (what measures the networks), then the controller's stop rule, the
 //! training curve (which depends on the tolerance schedule tol(t)), grasps and failures.
 
-use super::report::{mean, Report};
-use crate::error::{LabError as Error, Result};
+use trn_lab::format::{protocol_line, px};
+use trn_lab::report::{mean, trials_to_reach, Report};
+use trn_lab::{LabError as Error, Result};
 
 /// Mean of the last `n` entries.
 fn tail(x: &[f32], n: usize) -> f32 {
     mean(&x[x.len().saturating_sub(n)..])
-}
-
-/// First trial after which the centred 21-trial mean stays below `limit`, if any.
-pub fn trials_to_reach(curve: &[f32], limit: f32) -> Option<usize> {
-    let s = super::report::smooth(curve, 21);
-    let mut first = None;
-    for (i, &e) in s.iter().enumerate() {
-        if e < limit {
-            first.get_or_insert(i + 1);
-        } else {
-            first = None;
-        }
-    }
-    first
-}
-
-/// A figure with two decimals, `n/a` for no number.
-pub fn px(x: f32) -> String {
-    if x.is_finite() {
-        format!("{x:.2}")
-    } else {
-        "n/a".into()
-    }
-}
-
-/// What the summary says of the controller's protocol version: nothing for the current one;
-/// for version 3, that it speaks it and that its tables were not read.
-pub fn protocol_line(r: &Report) -> Option<String> {
-    match r.controller_protocol {
-        Some(v) if v < trn_protocol::ProtocolVersion::CURRENT.number() => Some(format!(
-            "the controller speaks protocol v{v}: its tables were not read, checked or saved (tables over the bus came with v4)"
-        )),
-        _ => None,
-    }
 }
 
 /// Prints the conformance suite's checks; fails when any failed.
@@ -310,16 +277,7 @@ pub fn check_failures(r: &Report) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::FailedTrial;
-
-    #[test]
-    fn reach_is_the_first_trial_after_which_the_mean_stays_below() {
-        let mut c = vec![10.0f32; 50];
-        c.extend(vec![1.0f32; 100]);
-        let n = trials_to_reach(&c, 3.0).unwrap();
-        assert!(n > 45 && n < 60, "{n}");
-        assert_eq!(trials_to_reach(&[5.0; 30], 3.0), None);
-    }
+    use trn_lab::report::FailedTrial;
 
     #[test]
     fn more_than_a_tenth_of_failed_evaluation_trials_is_an_error() {
@@ -341,11 +299,5 @@ mod tests {
         // training failures do not count against the evaluation
         r.failures = vec![fail("training"); 10];
         assert!(check_failures(&r).is_ok());
-    }
-
-    #[test]
-    fn no_number_prints_as_such() {
-        assert_eq!(px(f32::NAN), "n/a");
-        assert_eq!(px(1.234), "1.23");
     }
 }
