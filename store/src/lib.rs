@@ -30,7 +30,7 @@ pub mod ram;
 pub mod sim;
 pub mod slot;
 
-pub use flash_store::{FlashStore, LayoutError, RestoreError};
+pub use flash_store::{BackgroundErase, FlashStore, LayoutError, RestoreError};
 pub use ram::{RamFlash, RamFlashError};
 pub use trn_controller::persist::{
     ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,

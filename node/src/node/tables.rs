@@ -1,6 +1,8 @@
 //! The node's tables over the bus and in their store (protocol/SPEC.md 3.5): the status,
-//! saves (on a command, on entering `Mature`, every N learning steps, never during a trial
-//! that learns), erasing the stored copy, chunks of the checkpoint image read out from the
+//! saves (on a command, on entering `Mature`, every N learning steps; a save's steps run in
+//! every turn, trials or not, and its store writes the tables only while the controller runs
+//! no trial: a trial's start waits for a save in progress, up to
+//! `NodeConfig::save_hold_ms`), erasing the stored copy, chunks of the checkpoint image read out from the
 //! live tables, an image written in (staged in the store, verified and applied whole), the
 //! announcement at boot. The node keeps a few dozen bytes of it, never the image.
 
@@ -25,7 +27,7 @@ use write::Write;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Save {
     Idle,
-    /// Due: begins as soon as no learning trial runs.
+    /// Due: begins at the next turn.
     Wanted,
     /// Steps run from `poll`.
     Running,
@@ -183,13 +185,17 @@ impl ControllerNode {
         }
     }
 
+    /// True while a save is due or in progress.
+    pub(crate) fn tables_saving(&self) -> bool {
+        self.tables.save != Save::Idle
+    }
+
     /// True while the tables' part of `poll` has work for the very next turn: an
     /// announcement, or a save that is due or running and not held back (a save runs one
-    /// small step a turn; a learning trial or a staged image holds it back until a frame
-    /// changes that).
+    /// small step a turn; during a trial its erases are polled at the trial's own turns, its
+    /// frames and heartbeats; a staged image holds it back until a frame changes that).
     pub(crate) fn tables_want_a_turn(&self) -> bool {
-        let held =
-            self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some();
+        let held = self.trial.is_some() || self.tables.write.staging().is_some();
         self.tables.announce.is_some() || (self.tables.save != Save::Idle && !held)
     }
 
@@ -210,11 +216,13 @@ impl ControllerNode {
             return;
         };
         let since = s1.wrapping_add(s2).wrapping_sub(self.tables.steps_at_save);
-        if since >= self.cfg.save_every_steps && self.trial.is_none() {
+        // due during a trial too: the erases run while it does, the store writes the tables
+        // only between trials
+        if since >= self.cfg.save_every_steps {
             self.want_save();
         }
-        // never while a trial learns, nor while an image is staged in the slot a save would use
-        if self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some() {
+        // never while an image is staged in the slot a save would use
+        if self.tables.write.staging().is_some() {
             return;
         }
         let provenance = self.tables.provenance;
