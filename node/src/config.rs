@@ -27,6 +27,10 @@ pub struct NodeConfig {
     /// Below the runner's give-up of a trial start that shows no sign (13 x 300 ms on
     /// SocketCAN): 3,000.
     pub save_hold_ms: u32,
+    /// Learning steps before a save by steps is due at which its erases begin (they run
+    /// during the trials, the tables are written once the save is due): 1, room for a
+    /// 128 KiB sector's erase of up to 2.2 s in each of two trials.
+    pub save_lead_steps: u32,
     /// The protocol version the node speaks (SPEC.md, "Versions"): [`ProtocolVersion::V4`];
     /// [`ProtocolVersion::V3`] makes it a version-3 controller, for testing runners against
     /// one: the kinds, error codes and point status that version 4 added are unknown to it
@@ -49,6 +53,7 @@ impl NodeConfig {
         allow_unguarded_reset: false,
         save_every_steps: u32::MAX,
         save_hold_ms: 3000,
+        save_lead_steps: 1,
         protocol: ProtocolVersion::V4,
     };
 

@@ -232,7 +232,6 @@ impl Rig {
                 }
                 self.wait(sent + RUNNER_TIMEOUT_US);
             }
-            if std::env::var("DBG").is_ok() { println!("trial {trial} started at {} ms after waiting {} ms; saving {} erases left {} counts {:?}", self.clock.now_ms(), (self.clock.now_us()-first_sent)/1000, self.b.store.saving(), self.b.store.erases_left(), self.b.store.flash().erase_counts()); }
             self.f.max_repeats = self.f.max_repeats.max(repeats);
             self.f.max_wait_us = self.f.max_wait_us.max(self.clock.now_us() - first_sent);
             // until it ends

@@ -46,6 +46,10 @@ pub(crate) struct TableState {
     /// Learning steps (both stages) at the last save or restore.
     steps_at_save: u32,
     save: Save,
+    /// True when the save was asked for (a command, entering `Mature`), not by steps.
+    asked: bool,
+    /// True when the learning steps make a save due (not only its erases).
+    due: bool,
     write: Write,
     /// A status to announce at the next poll (at boot).
     announce: Option<TablesEvent>,
@@ -59,6 +63,8 @@ impl TableState {
             dirty: true,
             steps_at_save: 0,
             save: Save::Idle,
+            asked: false,
+            due: false,
             write: Write::NONE,
             announce: None,
         }
@@ -169,6 +175,7 @@ impl ControllerNode {
                 store.save_cancel();
             }
             self.tables.save = if resave { Save::Wanted } else { Save::Idle };
+            self.tables.asked &= resave;
         }
     }
 
@@ -176,6 +183,7 @@ impl ControllerNode {
     pub(crate) fn entering_mode(&mut self, mode: Mode) {
         if mode == Mode::Mature && self.mode != Mode::Mature && self.tables.dirty {
             self.want_save();
+            self.tables.asked = true;
         }
     }
 
@@ -185,9 +193,15 @@ impl ControllerNode {
         }
     }
 
+    /// True when the save in progress may write the tables at the next gap between trials
+    /// (asked for, or due by steps), not only erase ahead of its turn.
+    fn save_ready(&self) -> bool {
+        self.tables.asked || self.tables.due
+    }
+
     /// True while a save is due or in progress.
     pub(crate) fn tables_saving(&self) -> bool {
-        self.tables.save != Save::Idle
+        self.tables.save != Save::Idle && self.save_ready()
     }
 
     /// True while the tables' part of `poll` has work for the very next turn: an
@@ -195,7 +209,8 @@ impl ControllerNode {
     /// small step a turn; during a trial its erases are polled at the trial's own turns, its
     /// frames and heartbeats; a staged image holds it back until a frame changes that).
     pub(crate) fn tables_want_a_turn(&self) -> bool {
-        let held = self.trial.is_some() || self.tables.write.staging().is_some();
+        let held =
+            self.trial.is_some() || self.tables.write.staging().is_some() || !self.save_ready();
         self.tables.announce.is_some() || (self.tables.save != Save::Idle && !held)
     }
 
@@ -216,13 +231,17 @@ impl ControllerNode {
             return;
         };
         let since = s1.wrapping_add(s2).wrapping_sub(self.tables.steps_at_save);
-        // due during a trial too: the erases run while it does, the store writes the tables
-        // only between trials
-        if since >= self.cfg.save_every_steps {
+        // the erases begin `save_lead_steps` before the save is due, during the trials (the
+        // tables are not read); the tables are written once it is due, between trials
+        let every = self.cfg.save_every_steps;
+        self.tables.due = every != u32::MAX && since >= every;
+        if every != u32::MAX && since.saturating_add(self.cfg.save_lead_steps) >= every {
             self.want_save();
         }
-        // never while an image is staged in the slot a save would use
-        if self.tables.write.staging().is_some() {
+        // never while an image is staged in the slot a save would use; between trials only
+        // when the save may write the tables
+        if self.tables.write.staging().is_some() || (self.trial.is_none() && !self.save_ready())
+        {
             return;
         }
         let provenance = self.tables.provenance;
@@ -235,6 +254,7 @@ impl ControllerNode {
             Ok(None) => self.tables.save = Save::Running,
             Ok(Some(copy)) => {
                 self.tables.save = Save::Idle;
+                self.tables.asked = false;
                 self.tables.dirty = false;
                 self.tables.steps_at_save = copy.steps.0.wrapping_add(copy.steps.1);
                 self.push_status(ctrl, TablesEvent::Saved, out);
@@ -243,6 +263,7 @@ impl ControllerNode {
             Err(e) => {
                 // reported once: a save by steps is tried again only after as many more
                 self.tables.save = Save::Idle;
+                self.tables.asked = false;
                 self.tables.steps_at_save = s1.wrapping_add(s2);
                 let (reason, extra) = save_reason(e);
                 failed(out, table_op::SAVE, reason, extra);
@@ -272,6 +293,7 @@ impl ControllerNode {
         if c.op == StoreOp::Save {
             if self.tables.dirty || self.tables.save != Save::Idle {
                 self.want_save();
+                self.tables.asked = true;
             } else {
                 // nothing changed since the last save: that copy is the answer
                 self.push_status(ctrl, TablesEvent::Saved, out);
