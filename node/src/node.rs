@@ -207,13 +207,7 @@ impl ControllerNode {
     /// True (and kept) when the start of `trial` must wait for the save in progress: a save
     /// writes the tables only between trials. A repeat of the start waiting keeps the first
     /// (its supervision, its time).
-    pub(crate) fn defers(
-        &mut self,
-        trial: u32,
-        task: Task,
-        fine: FineMoves,
-        now_ms: u32,
-    ) -> bool {
+    pub(crate) fn defers(&mut self, trial: u32, task: Task, fine: FineMoves, now_ms: u32) -> bool {
         if !self.tables_saving() {
             self.deferred = None;
             return false;

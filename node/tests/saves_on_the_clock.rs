@@ -161,7 +161,10 @@ impl Rig {
                         .zip(&self.erases_at_last_save)
                         .map(|(a, b)| a - b)
                         .collect();
-                    let began = self.save_began_at_trial.take().unwrap_or(self.f.trials_done);
+                    let began = self
+                        .save_began_at_trial
+                        .take()
+                        .unwrap_or(self.f.trials_done);
                     self.f.saves.push((self.f.trials_done - began, made));
                     self.erases_at_last_save = now;
                 }

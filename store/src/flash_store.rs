@@ -677,9 +677,7 @@ impl<F: NorFlash> FlashStore<F> {
         while budget > 0 && !cur.is_done() {
             let mut piece = [0u8; PROGRAM];
             // the cursor's only refusal: the tables changed since the save began
-            let n = cur
-                .read(ctrl, &mut piece)
-                .map_err(|_| SaveError::Changed)?;
+            let n = cur.read(ctrl, &mut piece).map_err(|_| SaveError::Changed)?;
             let padded = n.div_ceil(F::WRITE_SIZE) * F::WRITE_SIZE;
             self.mark_programmed(Self::IMAGE_AT + programmed + padded as u32);
             self.write_image(slot, programmed, &piece[..n])

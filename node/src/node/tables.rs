@@ -199,9 +199,9 @@ impl ControllerNode {
         self.tables.asked || self.tables.due
     }
 
-    /// True while a save is due or in progress.
+    /// True while a save that may write the tables runs (a trial's start waits for it).
     pub(crate) fn tables_saving(&self) -> bool {
-        self.tables.save != Save::Idle && self.save_ready()
+        self.tables.save == Save::Running && self.save_ready()
     }
 
     /// True while the tables' part of `poll` has work for the very next turn: an
@@ -240,8 +240,7 @@ impl ControllerNode {
         }
         // never while an image is staged in the slot a save would use; between trials only
         // when the save may write the tables
-        if self.tables.write.staging().is_some() || (self.trial.is_none() && !self.save_ready())
-        {
+        if self.tables.write.staging().is_some() || (self.trial.is_none() && !self.save_ready()) {
             return;
         }
         let provenance = self.tables.provenance;
