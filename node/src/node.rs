@@ -430,6 +430,8 @@ impl ControllerNode {
                 self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::ModeChange(m)) => {
+                // a start waiting for a save belongs to the mode it came in
+                self.deferred = None;
                 self.entering_mode(m.mode);
                 self.mode = m.mode;
                 self.idle_requested = m.mode == Mode::Idle;
