@@ -171,7 +171,7 @@ mod store {
             if offset < bank_size || offset >= FLASH_SIZE as u32 {
                 return Err(Error::Size);
             }
-            if offset % SECTOR != 0 {
+            if !offset.is_multiple_of(SECTOR) {
                 return Err(Error::Unaligned);
             }
             let bank = bank2();
