@@ -197,8 +197,8 @@ impl ControllerNode {
         if let Some(d) = self.deferred {
             let held = now_ms.wrapping_sub(d.since_ms) < self.cfg.save_hold_ms;
             if !self.tables_saving() || !held {
-                self.deferred = None;
-                self.begin_trial(ctrl, d.trial, d.task, d.fine, now_ms, out);
+                // the start finds the save over or its hold past, and begins
+                self.start(ctrl, d.trial, d.task, d.fine, now_ms, out);
             }
         }
         self.speak_own_version(out);

@@ -6,9 +6,7 @@ mod common;
 use common::*;
 use trn_controller::persist::TableStore;
 use trn_node::{codes, ControllerNode, NodeConfig, Outbox};
-use trn_protocol::{
-    Message, Mode, ModeChange, Stage1Target, StoreCommand, StoreOp, TablesEvent, TablesStatus,
-};
+use trn_protocol::{Message, Mode, ModeChange, StoreCommand, StoreOp, TablesEvent, TablesStatus};
 
 fn statuses(out: &[trn_protocol::Envelope]) -> Vec<TablesStatus> {
     out.iter()
@@ -40,13 +38,7 @@ fn poll_until(
 
 /// Runs a learning stage-1 trial to its end with the plant answering.
 fn learning_trial(n: &mut ControllerNode, b: &mut Board, trial: u32, now: &mut u32) {
-    let t = Stage1Target {
-        trial,
-        learn: true,
-        grasp: false,
-        fine_moves: 1,
-        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
-    };
+    let t = learning_target(trial);
     let mut plant = Plant::new();
     let mut out = send(n, b, t.into(), *now);
     for _ in 0..20 {
@@ -147,13 +139,7 @@ fn every_n_learning_steps_a_save_between_trials_and_a_learning_trial_waits_for_i
     let mut out = Outbox::new();
     n.poll(&mut b, now + 10, &mut out);
     assert!(b.store.saving(), "a save runs");
-    let t = Stage1Target {
-        trial: 3,
-        learn: true,
-        grasp: false,
-        fine_moves: 1,
-        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
-    };
+    let t = learning_target(3);
     let out = send(&mut n, &mut b, t.into(), now);
     assert!(out.is_empty() && n.trial_deferred() && n.trial().is_none());
     let s = poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 200).unwrap();
@@ -187,13 +173,7 @@ fn a_start_waits_for_a_save_no_longer_than_the_hold() {
     let mut out = Outbox::new();
     n.poll(&mut b, now, &mut out);
     assert!(b.store.saving());
-    let t = Stage1Target {
-        trial: 2,
-        learn: true,
-        grasp: false,
-        fine_moves: 1,
-        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
-    };
+    let t = learning_target(2);
     assert!(send(&mut n, &mut b, t.into(), now).is_empty());
     // a repeat of the start while it waits changes nothing
     assert!(send(&mut n, &mut b, t.into(), now + 20).is_empty());

@@ -19,9 +19,7 @@ use common::*;
 use trn_controller::WithStore;
 use trn_node::{ControllerNode, NodeConfig, Outbox};
 use trn_protocol::heartbeat::{HeartbeatConfig, HeartbeatMonitor};
-use trn_protocol::{
-    Envelope, Message, Mode, ModeChange, NodeId, SafeState, Stage1Target, TablesEvent,
-};
+use trn_protocol::{Envelope, Message, Mode, ModeChange, NodeId, SafeState, TablesEvent};
 use trn_store::sim::{FlashTiming, H743Flash, SimClock};
 use trn_store::{FlashStore, TableStore};
 
@@ -206,13 +204,7 @@ impl Rig {
     /// after the trial before it ended, repeating it while the node shows no sign of it.
     fn train(&mut self, first: u32, last: u32) {
         for trial in first..=last {
-            let t = Stage1Target {
-                trial,
-                learn: true,
-                grasp: false,
-                fine_moves: 1,
-                v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
-            };
+            let t = learning_target(trial);
             self.clock.advance(1_000);
             let first_sent = self.clock.now_us();
             let mut sent = first_sent;

@@ -87,19 +87,6 @@ impl ControllerNode {
         if self.trial.is_none() && self.defers(trial, task, fine, now_ms) {
             return;
         }
-        self.begin_trial(ctrl, trial, task, fine, now_ms, out);
-    }
-
-    /// Starts a trial (a start waiting for a save is begun from `poll`).
-    pub(super) fn begin_trial<C: Control + ?Sized>(
-        &mut self,
-        ctrl: &mut C,
-        trial: u32,
-        task: Task,
-        fine: FineMoves,
-        now_ms: u32,
-        out: &mut Outbox,
-    ) {
         if ctrl.busy() {
             // a new target pre-empts a trial that is still running (its runner gave up)
             ctrl.abort();
