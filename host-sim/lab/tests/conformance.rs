@@ -36,6 +36,25 @@ fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
             "{name}: {check:?}"
         );
     }
+    // an end with no write and `keep_tables` under another configuration and the tables'
+    // own, for every law; where the tables learned (the TRN), a begin without a nonce
+    // refused and a write begun with one
+    let mut names = vec![
+        "TableWriteEnd with no write staged",
+        "SessionConfig{keep_tables: true} of another",
+        "SessionConfig{keep_tables: true} of the tables' own",
+    ];
+    if law == Law::Trn {
+        names.push("TableWriteBegin into learned tables without a nonce");
+        names.push("A write begun with GuardNonce{TableWrite}");
+    }
+    for name in names {
+        let check = r.conformance.iter().find(|c| c.name.starts_with(name));
+        assert!(
+            check.is_some_and(|c| c.passed && !c.skipped),
+            "{name}: {check:?}"
+        );
+    }
 }
 
 #[test]

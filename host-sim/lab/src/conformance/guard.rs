@@ -48,14 +48,12 @@ where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     fn skip_from(&mut self, first: usize, why: &str) {
-        for name in &CHECKS[first..] {
-            self.skip(name, why);
-        }
+        self.skip_each(&CHECKS[first..], why);
     }
 
     /// True while the controller still beats after `Idle`; false when it went silent (it
     /// ended its loop).
-    fn still_running(&mut self) -> Result<bool> {
+    pub(super) fn still_running(&mut self) -> Result<bool> {
         let silence = self.runner.timing().silence;
         let until = self.runner.rig().now() + self.patience.alive.max(Duration::from_millis(300));
         let j = self.runner.rig_mut().take_journal();
@@ -82,7 +80,7 @@ where
     }
 
     /// Sends `msg`; what came until `done`, then quiet.
-    fn exchange(
+    pub(super) fn exchange(
         &mut self,
         msg: Message,
         done: impl Fn(&[Envelope]) -> bool,

@@ -110,6 +110,23 @@ pub fn missing_error(journal: &[Envelope], code: u16, detail: u32, name: &str) -
     })
 }
 
+/// The problems of a configuration that must be refused with `code` and `detail` (named
+/// `name`) and not acknowledged.
+pub fn refused_unacknowledged(
+    journal: &[Envelope],
+    code: u16,
+    detail: u32,
+    name: &str,
+) -> Vec<String> {
+    let mut p: Vec<String> = missing_error(journal, code, detail, name)
+        .into_iter()
+        .collect();
+    if echoed(journal) {
+        p.push("the configuration was acknowledged".into());
+    }
+    p
+}
+
 /// Positions in the journal of the gripper commands, with `close`.
 pub fn gripper_commands(journal: &[Envelope]) -> Vec<(usize, bool)> {
     journal

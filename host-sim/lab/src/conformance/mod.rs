@@ -20,13 +20,15 @@
 //! The sequences: `sequences.rs` (session, priming, training, aborts, a late duplicate),
 //! `mature.rs` (grasps and their repeats, frozen tables, configurations outside `Idle`),
 //! `tables.rs` (the tables' status, chunk 0, a save, an erase refused, an unsupported law), `guard.rs` (after `Idle`:
-//! trials refused, the nonce's refusals and its acceptance).
+//! trials refused, the nonce's refusals and its acceptance), `writes.rs` (a table write's
+//! refusals and acknowledgements, `keep_tables` under another configuration and its own).
 
 mod guard;
 pub mod journal;
 mod mature;
 mod sequences;
 mod tables;
+mod writes;
 
 use std::time::Duration;
 
@@ -133,6 +135,7 @@ where
         idle.err().map(|e| e.to_string()).into_iter().collect(),
     );
     s.after_idle(session)?;
+    s.writes(session)?;
     let problems = heartbeat_problems(&s.all);
     s.verdict("heartbeats: Operational, counter +1 each", problems);
     Ok(s.checks)
@@ -158,6 +161,13 @@ where
             self.skip(name, V4_ONLY);
         }
         self.v3
+    }
+
+    /// The checks `names` not applicable to this controller, and why.
+    fn skip_each(&mut self, names: &[&str], why: &str) {
+        for name in names {
+            self.skip(name, why);
+        }
     }
 
     /// A check not applicable to this controller, and why.

@@ -181,7 +181,7 @@ where
     }
 
     /// The tables' status now (`StoreCommand{Status}` answered), if it came.
-    fn status_now(&mut self) -> Result<Option<trn_protocol::TablesStatus>> {
+    pub(super) fn status_now(&mut self) -> Result<Option<trn_protocol::TablesStatus>> {
         let ask = StoreCommand {
             op: StoreOp::Status,
             nonce: 0,

@@ -4,7 +4,7 @@
 //! | the run wants | the controller's tables never learned | they learned |
 //! |---|---|---|
 //! | new tables ([`Want::New`]: `trn train`, the conformance suite) | `SessionConfig{keep_tables: false}` | refused before anything changes, unless the user allowed it (`--reset-tables`): then said what is erased, and re-seeded with the guard's nonce (`ConfirmedSessionConfig`) |
-//! | the tables it holds ([`Want::Held`]: `trn eval`, `trn grasp`, `trn train --keep-tables`) | as for new tables (`trn train --keep-tables`), or kept if their configuration is the run's | kept (`keep_tables: true`) if learned under the run's configuration; refused otherwise, naming theirs |
+//! | the tables it holds ([`Want::Held`]: `trn eval`, `trn grasp`, `trn train --keep-tables`) | kept if their configuration is the run's; else (and always for `trn train --keep-tables`) new ones seeded under the run's, whose fingerprint the controller must then announce ([`confirm`]) | kept (`keep_tables: true`) if learned under the run's configuration; refused otherwise, naming theirs |
 //! | a checkpoint's tables ([`Want::Image`]: `--checkpoint-in`) | written in, then kept | written in with the guard's nonce if allowed (`--reset-tables`; said what is replaced), refused otherwise |
 //!
 //! Nothing destructive is sent before the check that allows it.
@@ -146,6 +146,18 @@ where
         Want::Held { or_new } if *or_new && !learned(&before) => {
             observer.notice("the controller's tables never learned: training new ones");
             runner.configure(o.with_keep(false))?;
+            confirm(runner, o)?;
+        }
+        Want::Held { .. } if !learned(&before) && before.fingerprint != o.fingerprint => {
+            // nothing learned to keep: its configuration (a reset one, or none yet) does not
+            // matter; new tables under the run's, and then the fingerprint it announces for
+            // the configuration it accepted must be that configuration's
+            observer.notice(&format!(
+                "the controller's tables never learned and were seeded under another configuration (its fingerprint {:#010x}, this run's {:#010x}): new ones seeded under this run's",
+                before.fingerprint, o.fingerprint
+            ));
+            runner.configure(o.with_keep(false))?;
+            confirm(runner, o)?;
         }
         Want::Held { .. } => {
             if before.fingerprint != o.fingerprint {
@@ -192,6 +204,29 @@ where
         before: Some(before),
         kept_steps,
     })
+}
+
+/// Checks that the configuration the controller accepted (it echoed the run's
+/// `SessionConfig`) is the one it announces: its status's fingerprint must be the one SPEC.md
+/// 3.2.1 gives for the run's configuration, else the run is refused naming both numbers.
+pub fn confirm<P>(runner: &mut Runner<P>, o: &Opening) -> Result<()>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let now = super::status(runner)?;
+    if now.fingerprint == o.fingerprint {
+        return Ok(());
+    }
+    let run = configuration_named(o.fingerprint, o.image).unwrap_or_else(|| {
+        format!(
+            "this run's configuration for {}x{} images",
+            o.image.width, o.image.height
+        )
+    });
+    Err(LabError::Controller(format!(
+        "accepted the configuration of this run ({run}) but announces fingerprint {:#010x} for it, where SPEC.md 3.2.1 gives {:#010x}: its formula or its constants are not the spec's, so its tables could not be told apart from those of another configuration",
+        now.fingerprint, o.fingerprint
+    )))
 }
 
 /// Makes way for new tables: nothing to do on tables that never learned; learned tables
