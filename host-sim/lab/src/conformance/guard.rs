@@ -14,7 +14,7 @@ use trn_protocol::{
     SessionConfig, StoreCommand, StoreOp, TablesEvent,
 };
 
-use super::journal::{echoed, errors, missing_error, reports};
+use super::journal::{echoed, errors, missing_error, refused_unacknowledged, reports};
 use super::{nothing_moved, stage1, Suite};
 use crate::error::{LabError, Result};
 
@@ -117,13 +117,12 @@ where
         detail: u32,
     ) -> Result<Vec<String>> {
         let j = self.exchange(confirmed.into(), Self::error_seen(codes::GUARD_REFUSED))?;
-        let mut p: Vec<String> = missing_error(&j, codes::GUARD_REFUSED, detail, "GUARD_REFUSED")
-            .into_iter()
-            .collect();
-        if echoed(&j) {
-            p.push("the configuration was acknowledged".into());
-        }
-        Ok(p)
+        Ok(refused_unacknowledged(
+            &j,
+            codes::GUARD_REFUSED,
+            detail,
+            "GUARD_REFUSED",
+        ))
     }
 
     /// A nonce for a re-seed, or `None` (the problems said).

@@ -11,7 +11,7 @@ use trn_protocol::{
     TableReadRequest, TablesEvent,
 };
 
-use super::journal::{echoed, errors, missing_error};
+use super::journal::{errors, missing_error, refused_unacknowledged};
 use super::{nothing_moved, Suite};
 use crate::error::Result;
 
@@ -79,17 +79,12 @@ where
         };
         self.send(other.into())?;
         let j = self.collect(Self::error_seen(codes::CONFIG_REJECTED), true)?;
-        let mut p: Vec<String> = missing_error(
+        let p = refused_unacknowledged(
             &j,
             codes::CONFIG_REJECTED,
             codes::CONFIG_UNSUPPORTED,
             "CONFIG_REJECTED (valid but unsupported)",
-        )
-        .into_iter()
-        .collect();
-        if echoed(&j) {
-            p.push("the configuration was acknowledged".into());
-        }
+        );
         self.verdict(
             &format!("A SessionConfig of a law it does not run (law {law}) is refused (CONFIG_REJECTED, detail 4) and not acknowledged"),
             p,

@@ -189,12 +189,7 @@ where
             p.push(format!("errors {:?}, expected the echo", errors(&j)));
         }
         if let Some(before) = before {
-            match self.status_now()? {
-                Some(s) if held(&s) == held(&before) => {}
-                other => p.push(format!(
-                    "status before {before:?}, after {other:?}: expected the same tables"
-                )),
-            }
+            p.extend(self.tables_changed(&before)?);
         }
         self.verdict(CHECKS[4], p);
         Ok(())
@@ -258,13 +253,19 @@ where
         if applied(&j) {
             p.push("an incomplete image was applied".into());
         }
-        match self.status_now()? {
-            Some(s) if held(&s) == held(before) => {}
-            other => p.push(format!(
+        p.extend(self.tables_changed(before)?);
+        Ok(p)
+    }
+
+    /// The problem when the tables the controller holds now (its status) are not those of
+    /// `before`.
+    fn tables_changed(&mut self, before: &TablesStatus) -> Result<Option<String>> {
+        Ok(match self.status_now()? {
+            Some(s) if held(&s) == held(before) => None,
+            other => Some(format!(
                 "status before {before:?}, after {other:?}: expected the same tables"
             )),
-        }
-        Ok(p)
+        })
     }
 
     /// A nonce for `op`, if one came.
