@@ -65,7 +65,7 @@ fn benches(c: &mut Criterion) {
                 s.begin(&V, None, false, &mut scratch).unwrap();
                 let mut seen = V;
                 seen[0] += 20.0;
-                let step = s.observe(black_box(&seen)).unwrap();
+                let step = s.observe(black_box(&seen), &mut scratch).unwrap();
                 s.abort();
                 step
             })

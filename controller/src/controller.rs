@@ -374,7 +374,8 @@ impl Controller {
                 } else {
                     None
                 };
-                match self.law1().0.observe(&v)? {
+                let (law, scratch) = self.law1();
+                match law.observe(&v, scratch)? {
                     StageStep::Move(p) => Ok(self.move1(p)),
                     StageStep::Done(o) => {
                         self.stage1_outcome = o;
@@ -395,10 +396,13 @@ impl Controller {
                     }
                 }
             }
-            (Running::Stage2, Observation::Centre(c)) => match self.law2().0.observe(&c)? {
-                StageStep::Move(p) => Ok(self.move2(p)),
-                StageStep::Done(o) => Ok(self.done(Some(o))),
-            },
+            (Running::Stage2, Observation::Centre(c)) => {
+                let (law, scratch) = self.law2();
+                match law.observe(&c, scratch)? {
+                    StageStep::Move(p) => Ok(self.move2(p)),
+                    StageStep::Done(o) => Ok(self.done(Some(o))),
+                }
+            }
             _ => Err(Error::WrongObservationKind),
         }
     }

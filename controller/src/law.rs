@@ -26,7 +26,8 @@ pub trait StageLaw<const D: usize, const M: usize> {
         scratch: &mut RankScratch,
     ) -> Result<[f32; M]>;
     /// The observation after the last move: the next pressures, or the trial's outcome.
-    fn observe(&mut self, u: &[f32; D]) -> Result<StageStep<M>>;
+    /// `scratch` as in [`StageLaw::begin`].
+    fn observe(&mut self, u: &[f32; D], scratch: &mut RankScratch) -> Result<StageStep<M>>;
     /// Abandons the running trial.
     fn abort(&mut self);
 }
@@ -49,7 +50,7 @@ impl<const D: usize, const M: usize> StageLaw<D, M> for Absent {
     ) -> Result<[f32; M]> {
         Err(Error::UnsupportedLaw)
     }
-    fn observe(&mut self, _u: &[f32; D]) -> Result<StageStep<M>> {
+    fn observe(&mut self, _u: &[f32; D], _scratch: &mut RankScratch) -> Result<StageStep<M>> {
         Err(Error::UnsupportedLaw)
     }
     fn abort(&mut self) {}

@@ -375,12 +375,30 @@ pub fn clamp<const M: usize>(p: &[f32; M], limit: f32) -> [f32; M] {
     out
 }
 
-/// `1 / ||dv||^2` for the Jacobian rule, or [`Error::ZeroLengthDv`] when `||dv|| < min_dv`
-/// (NaN fails every comparison, so it is rejected too).
-fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], min_dv: f32) -> Result<f32> {
+/// Which moves the Jacobian rule learns from, and how much: skipped below `min` pixels of
+/// `||dv||` ([`crate::StageConfig::min_dv`]), and normalised by `||dv||^2 + noise^2`
+/// ([`crate::StageConfig::dv_noise`]; `noise = 0`: the paper's `||dv||^2`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DvRule {
+    /// The shortest `||dv||` learned from (pixels).
+    pub min: f32,
+    /// The regularisation of the normalisation (pixels).
+    pub noise: f32,
+}
+
+impl DvRule {
+    /// Moves of at least `min` pixels, the paper's normalisation.
+    pub const fn at_least(min: f32) -> DvRule {
+        DvRule { min, noise: 0.0 }
+    }
+}
+
+/// `1 / (||dv||^2 + noise^2)` for the Jacobian rule, or [`Error::ZeroLengthDv`] when
+/// `||dv|| < min` (NaN fails every comparison, so it is rejected too).
+fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], rule: DvRule) -> Result<f32> {
     let norm2: f32 = dv.iter().map(|x| x * x).sum();
-    if norm2 >= min_dv * min_dv && norm2 > 0.0 && norm2.is_finite() {
-        Ok(1.0 / norm2)
+    if norm2 >= rule.min * rule.min && norm2 > 0.0 && norm2.is_finite() {
+        Ok(1.0 / (norm2 + rule.noise * rule.noise))
     } else {
         Err(Error::ZeroLengthDv)
     }
@@ -391,15 +409,15 @@ fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], min_dv: f32) -> Result<f32> {
 /// copy `A_bar` of the average instead of the tables,
 /// `A_bar += gain (dp - A_bar dv) dv^T / ||dv||^2`, with `dp` the last fine move's pressure
 /// change and `dv` the change of position it made. Returns [`Error::ZeroLengthDv`] without
-/// touching `a_bar` when `||dv|| < min_dv` (camera noise would dominate the secant).
+/// touching `a_bar` when `||dv||` is below the rule's minimum (camera noise would dominate the secant).
 pub fn secant_update<const D: usize, const M: usize>(
     a_bar: &mut [[f32; D]; M],
     gain: f32,
     dp: &[f32; M],
     dv: &[f32; D],
-    min_dv: f32,
+    rule: DvRule,
 ) -> Result<()> {
-    let inv = inverse_dv_norm2(dv, min_dv)?;
+    let inv = inverse_dv_norm2(dv, rule)?;
     secant_rows(a_bar.as_flattened_mut(), gain * inv, dp, dv);
     Ok(())
 }
@@ -428,7 +446,7 @@ fn secant_rows(a: &mut [f32], g: f32, dp: &[f32], dv: &[f32]) {
 /// `dp = a_bar (c_target - c_i)` that equals this form when `a_k` is close to `a_bar`
 /// (READING-NOTES.md); this form is used for both stages.
 ///
-/// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv|| < min_dv`.
+/// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv||` is below the rule's minimum.
 #[inline(never)]
 pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &mut Trn<N, D, M>,
@@ -437,9 +455,9 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
     coeff: f32,
     dp: &[f32; M],
     dv: &[f32; D],
-    min_dv: f32,
+    rule: DvRule,
 ) -> Result<()> {
-    let inv = inverse_dv_norm2(dv, min_dv)?;
+    let inv = inverse_dv_norm2(dv, rule)?;
     let ks = ranking.indices();
     for m in 0..M {
         jacobian_rows(
@@ -463,7 +481,7 @@ pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K:
 /// the average are bit for bit theirs.
 ///
 /// Returns [`Error::ZeroLengthDv`] without touching the tables (and without an average)
-/// when `||dv|| < min_dv`.
+/// when `||dv||` is below the rule's minimum.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub fn update_jacobians_and_mean<const N: usize, const D: usize, const M: usize, const K: usize>(
@@ -473,11 +491,11 @@ pub fn update_jacobians_and_mean<const N: usize, const D: usize, const M: usize,
     coeff: f32,
     dp: &[f32; M],
     dv: &[f32; D],
-    min_dv: f32,
+    rule: DvRule,
     alpha: &Falloff<K>,
     fine_ranks: usize,
 ) -> Result<[[f32; D]; M]> {
-    let inv = inverse_dv_norm2(dv, min_dv)?;
+    let inv = inverse_dv_norm2(dv, rule)?;
     let n = (fine_ranks + 1).min(K);
     let ranked = (
         ranking.indices().as_slice(),
@@ -542,6 +560,96 @@ fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
         update(&mut a[k as usize][m], coeff * f);
     }
     acc
+}
+
+/// The forward form of the trial's secant correction ([`crate::StageConfig::forward_secant`]):
+/// "good" Broyden on the trial's forward Jacobian `J` (`D x M`, pixels per pressure unit),
+/// `J += gain (dv - J dp) dp^T / ||dp||^2`. The pressure change `dp` is the controller's own
+/// command, known exactly, and the camera noise in `dv` is the regression's output noise, so
+/// the update has no errors-in-variables attenuation (the inverse rule regresses `dp` on the
+/// noisy `dv`). Returns [`Error::ZeroLengthDv`] without touching `j` when `||dv||` is below the rule's minimum
+/// (the move was within the camera noise) or when `dp` is zero.
+pub fn forward_secant_update<const D: usize, const M: usize>(
+    j: &mut [[f32; M]; D],
+    gain: f32,
+    dp: &[f32; M],
+    dv: &[f32; D],
+    rule: DvRule,
+) -> Result<()> {
+    inverse_dv_norm2(dv, rule)?;
+    let inv = inverse_dv_norm2(dp, DvRule::at_least(0.0))?;
+    // the rows of J are those of the inverse rule with the roles of dp and dv exchanged
+    secant_rows(j.as_flattened_mut(), gain * inv, dv, dp);
+    Ok(())
+}
+
+/// The Moore-Penrose pseudo-inverse `B^T (B B^T)^-1` of a `R x C` matrix `B` of full row
+/// rank (`R <= C`), regularised by `1e-6` of the trace of `B B^T`; `None` when `B B^T` is
+/// singular or not finite. `A_bar` (`M x D`) gives the forward Jacobian
+/// whose least-squares step is `A_bar`'s own; `J^T` (`M x D`) gives `(J^+)^T`.
+pub fn pseudo_inverse<const R: usize, const C: usize>(b: &[[f32; C]; R]) -> Option<[[f32; R]; C]> {
+    let mut g = [[0.0f32; R]; R];
+    for i in 0..R {
+        for k in 0..R {
+            g[i][k] = b[i].iter().zip(&b[k]).map(|(x, y)| x * y).sum();
+        }
+    }
+    let ridge = 1e-6 * (0..R).map(|i| g[i][i]).sum::<f32>();
+    (0..R).for_each(|i| g[i][i] += ridge);
+    invert_in_place(g.as_flattened_mut(), R)?;
+    // B^T G^-1: entry (c, r) = sum_i B[i][c] G^-1[i][r]
+    Some(core::array::from_fn(|c| {
+        core::array::from_fn(|r| (0..R).map(|i| b[i][c] * g[i][r]).sum())
+    }))
+}
+
+/// Inverts the `n x n` matrix `m` (row-major) in place by Gauss-Jordan elimination with
+/// partial pivoting (`n <= 8`); one copy for every size. `None` for a singular or
+/// non-finite matrix (`m` untouched).
+#[inline(never)]
+fn invert_in_place(m: &mut [f32], n: usize) -> Option<()> {
+    let mut inv = [0.0f32; 64];
+    let mut a = [0.0f32; 64];
+    if n > 8 || m.len() != n * n {
+        return None;
+    }
+    a[..n * n].copy_from_slice(m);
+    (0..n).for_each(|i| inv[i * n + i] = 1.0);
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&x, &y| a[x * n + col].abs().total_cmp(&a[y * n + col].abs()))
+            .unwrap_or(col);
+        let pv = a[pivot * n + col];
+        if !(pv.abs() > 0.0 && pv.is_finite()) {
+            return None;
+        }
+        if pivot != col {
+            for c in 0..n {
+                a.swap(pivot * n + c, col * n + c);
+                inv.swap(pivot * n + c, col * n + c);
+            }
+        }
+        let s = 1.0 / pv;
+        for c in 0..n {
+            a[col * n + c] *= s;
+            inv[col * n + c] *= s;
+        }
+        for r in 0..n {
+            let f = a[r * n + col];
+            if r == col || f == 0.0 {
+                continue;
+            }
+            for c in 0..n {
+                a[r * n + c] -= f * a[col * n + c];
+                inv[r * n + c] -= f * inv[col * n + c];
+            }
+        }
+    }
+    if inv[..n * n].iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    m.copy_from_slice(&inv[..n * n]);
+    Some(())
 }
 
 #[cfg(test)]
@@ -630,7 +738,7 @@ mod tests {
             1.0,
             &[3.0],
             &[2.0, 0.0],
-            1e-3,
+            DvRule::at_least(1e-3),
         )
         .unwrap();
         assert_eq!(net.a[0], [[1.5, 0.0]]);
@@ -645,9 +753,25 @@ mod tests {
         let before = net.clone();
         let r: Ranking<2> = ranked(&net, &[0.0, 0.0]);
         let ones = Falloff { value: [1.0, 1.0] };
-        let e = update_jacobians(&mut net, &r, &ones, 1.0, &[3.0], &[0.0, 0.0], 1e-3);
+        let e = update_jacobians(
+            &mut net,
+            &r,
+            &ones,
+            1.0,
+            &[3.0],
+            &[0.0, 0.0],
+            DvRule::at_least(1e-3),
+        );
         assert_eq!(e, Err(Error::ZeroLengthDv));
-        let e = update_jacobians(&mut net, &r, &ones, 1.0, &[3.0], &[f32::NAN, 0.0], 1e-3);
+        let e = update_jacobians(
+            &mut net,
+            &r,
+            &ones,
+            1.0,
+            &[3.0],
+            &[f32::NAN, 0.0],
+            DvRule::at_least(1e-3),
+        );
         assert_eq!(e, Err(Error::ZeroLengthDv));
         assert!(net == before);
     }
@@ -672,10 +796,18 @@ mod tests {
                 [3.0, -2.0, 1.5, 0.5, -4.0, 2.0, 1.0, -1.0],
             );
             let coeff = cfg.j.coeff(3);
-            update_jacobians(&mut a, &r, &gamma, coeff, &dp, &dv, cfg.min_dv).unwrap();
+            update_jacobians(&mut a, &r, &gamma, coeff, &dp, &dv, cfg.dv_rule()).unwrap();
             let want = mean_jacobian(&a, &r, &alpha, fine_ranks);
             let got = update_jacobians_and_mean(
-                &mut b, &r, &gamma, coeff, &dp, &dv, cfg.min_dv, &alpha, fine_ranks,
+                &mut b,
+                &r,
+                &gamma,
+                coeff,
+                &dp,
+                &dv,
+                cfg.dv_rule(),
+                &alpha,
+                fine_ranks,
             )
             .unwrap();
             assert!(a == b, "tables differ (seed {seed})");
@@ -696,7 +828,7 @@ mod tests {
             1.0,
             &[3.0],
             &[0.0, 0.0],
-            1e-3,
+            DvRule::at_least(1e-3),
             &ones,
             1,
         );
@@ -810,14 +942,14 @@ mod tests {
         };
         // full gain: the corrected average reproduces the move exactly
         let mut a = a0;
-        secant_update(&mut a, 1.0, &dp, &dv, 1.0).unwrap();
+        secant_update(&mut a, 1.0, &dp, &dv, DvRule::at_least(1.0)).unwrap();
         let got = apply(&a, &dv);
         assert!((got[0] - dp[0]).abs() < 1e-6 && (got[1] - dp[1]).abs() < 1e-6);
         let (before, after) = (apply(&a0, &w), apply(&a, &w));
         assert!((before[0] - after[0]).abs() < 1e-6 && (before[1] - after[1]).abs() < 1e-6);
         // gain 0.3: 30 % of the way from the old prediction to the move
         let mut b = a0;
-        secant_update(&mut b, 0.3, &dp, &dv, 1.0).unwrap();
+        secant_update(&mut b, 0.3, &dp, &dv, DvRule::at_least(1.0)).unwrap();
         let (old, new) = (apply(&a0, &dv), apply(&b, &dv));
         for m in 0..2 {
             assert!((new[m] - (old[m] + 0.3 * (dp[m] - old[m]))).abs() < 1e-6);
@@ -825,14 +957,84 @@ mod tests {
         // a move shorter than min_dv (or NaN) changes nothing
         let mut c = a0;
         assert_eq!(
-            secant_update(&mut c, 0.3, &dp, &[0.5, 0.0, 0.0], 1.0),
+            secant_update(&mut c, 0.3, &dp, &[0.5, 0.0, 0.0], DvRule::at_least(1.0)),
             Err(Error::ZeroLengthDv)
         );
         assert_eq!(
-            secant_update(&mut c, 0.3, &dp, &[f32::NAN, 3.0, 0.0], 1.0),
+            secant_update(
+                &mut c,
+                0.3,
+                &dp,
+                &[f32::NAN, 3.0, 0.0],
+                DvRule::at_least(1.0)
+            ),
             Err(Error::ZeroLengthDv)
         );
         assert_eq!(c, a0);
+    }
+
+    #[test]
+    fn forward_secant_matches_the_move_and_keeps_the_orthogonal_directions() {
+        // J: 3 coordinates per 2 pressures
+        let j0 = [[10.0, -20.0], [5.0, 40.0], [0.0, 3.0]];
+        let (dp, dv) = ([0.05, 0.1], [3.0, -4.0, 1.0]);
+        let q = [-0.1, 0.05]; // orthogonal to dp
+        let apply = |j: &[[f32; 2]; 3], x: &[f32; 2]| j.map(|row| row[0] * x[0] + row[1] * x[1]);
+        let mut j = j0;
+        forward_secant_update(&mut j, 1.0, &dp, &dv, DvRule::at_least(1.0)).unwrap();
+        let got = apply(&j, &dp);
+        for d in 0..3 {
+            assert!((got[d] - dv[d]).abs() < 1e-5, "{got:?}");
+            assert!((apply(&j, &q)[d] - apply(&j0, &q)[d]).abs() < 1e-5);
+        }
+        // gain 0.3: 30 % of the way
+        let mut k = j0;
+        forward_secant_update(&mut k, 0.3, &dp, &dv, DvRule::at_least(1.0)).unwrap();
+        let (old, new) = (apply(&j0, &dp), apply(&k, &dp));
+        for d in 0..3 {
+            assert!((new[d] - (old[d] + 0.3 * (dv[d] - old[d]))).abs() < 1e-5);
+        }
+        // a move within the camera noise, or no pressure change, changes nothing
+        let mut c = j0;
+        let short = [0.5, 0.0, 0.0];
+        assert_eq!(
+            forward_secant_update(&mut c, 0.3, &dp, &short, DvRule::at_least(1.0)),
+            Err(Error::ZeroLengthDv)
+        );
+        assert_eq!(
+            forward_secant_update(&mut c, 0.3, &[0.0, 0.0], &dv, DvRule::at_least(1.0)),
+            Err(Error::ZeroLengthDv)
+        );
+        assert_eq!(c, j0);
+    }
+
+    #[test]
+    fn the_pseudo_inverse_is_a_right_inverse_and_refuses_a_singular_matrix() {
+        let b = [[0.01, -0.02, 0.03, 0.0], [0.0, 0.04, -0.01, 0.02]];
+        let pinv = pseudo_inverse(&b).unwrap();
+        for i in 0..2 {
+            for k in 0..2 {
+                let x: f32 = (0..4).map(|c| b[i][c] * pinv[c][k]).sum();
+                let want = if i == k { 1.0 } else { 0.0 };
+                assert!((x - want).abs() < 1e-3, "B B+ [{i}][{k}] = {x}");
+            }
+        }
+        // the pseudo-inverse of the pseudo-inverse is B again (full row rank)
+        let back = pseudo_inverse(&transpose4x2(&pinv)).map(|m| transpose4x2(&m));
+        for (row, want) in back.unwrap().iter().zip(&b) {
+            for (x, w) in row.iter().zip(want) {
+                assert!((x - w).abs() < 1e-4, "{x} against {w}");
+            }
+        }
+        // rank-deficient rows: the ridge keeps the answer finite; a zero matrix, NaN: none
+        let deficient = pseudo_inverse(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0]]).unwrap();
+        assert!(deficient.iter().flatten().all(|x| x.is_finite()));
+        assert!(pseudo_inverse(&[[0.0f32; 3]; 2]).is_none());
+        assert!(pseudo_inverse(&[[f32::NAN, 0.0], [0.0, 1.0]]).is_none());
+    }
+
+    fn transpose4x2(m: &[[f32; 2]; 4]) -> [[f32; 4]; 2] {
+        core::array::from_fn(|r| core::array::from_fn(|c| m[c][r]))
     }
 
     #[test]
@@ -986,7 +1188,7 @@ mod tests {
                 }).sum()
             };
             let before = resid(&net);
-            update_jacobians(&mut net, &r, &Falloff { value: [1.0] }, g, &dp, &dv, 1e-3).unwrap();
+            update_jacobians(&mut net, &r, &Falloff { value: [1.0] }, g, &dp, &dv, DvRule::at_least(1e-3)).unwrap();
             prop_assert!(resid(&net) <= before * (1.0 - g) + 1e-4);
         }
     }

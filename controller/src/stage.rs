@@ -14,6 +14,11 @@ use crate::rules::{self, Falloff};
 pub use crate::trial::{check_input, FineMoves, StageOutcome, StageStep, TRACE_LEN, ZERO_OUTCOME};
 use crate::trial::{distance, sub};
 
+/// `m^T`.
+fn transpose<const R: usize, const C: usize>(m: &[[f32; C]; R]) -> [[f32; R]; C] {
+    core::array::from_fn(|c| core::array::from_fn(|r| m[r][c]))
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Idle,
@@ -28,8 +33,11 @@ struct Trial<const D: usize, const M: usize> {
     learn: bool,
     /// A fixed budget of fine moves, if one was asked for.
     exact: Option<u8>,
-    /// Coarse pressure P_bar (substep 4).
+    /// Coarse pressure P_bar (substep 4), as applied (clamped).
     p_bar: [f32; M],
+    /// The coarse output at the target before the clamp (the map's step,
+    /// [`StageConfig::map_step`]).
+    p_map: [f32; M],
     /// Pressure applied before the last one, and the position it reached.
     p_prev: [f32; M],
     v_prev: [f32; D],
@@ -57,6 +65,9 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     /// first, then corrected by the secant of each move (valid from the trial's second fine
     /// move on; kept outside [`Trial`] so that starting a trial does not write it).
     a_bar: [[f32; D]; M],
+    /// With [`StageConfig::forward_secant`], the trial's forward Jacobian (pixels per
+    /// pressure unit) whose pseudo-inverse `a_bar` then is.
+    j_fwd: [[f32; M]; D],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -79,12 +90,14 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 learn: false,
                 exact: None,
                 p_bar: [0.0; M],
+                p_map: [0.0; M],
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
+            j_fwd: [[0.0; M]; D],
         }
     }
 
@@ -278,6 +291,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 self.cfg.coarse_ranks as usize,
             )
         };
+        let p_map = p_bar;
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {
             target: *target,
@@ -285,6 +299,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             learn,
             exact,
             p_bar,
+            p_map,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
@@ -305,8 +320,10 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         Ok(p_bar)
     }
 
-    /// Consumes the observation that followed the last command.
-    pub fn observe(&mut self, v: &[f32; D]) -> Result<StageStep<M>> {
+    /// Consumes the observation that followed the last command. `scratch` is the ranking's
+    /// working memory, as in [`Stage::begin`] (only the map's step,
+    /// [`StageConfig::map_step`], ranks again).
+    pub fn observe(&mut self, v: &[f32; D], scratch: &mut RankScratch) -> Result<StageStep<M>> {
         if self.phase == Phase::Idle {
             return Err(Error::UnexpectedObservation);
         }
@@ -381,7 +398,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                             coeff,
                             &dp,
                             &dv,
-                            self.cfg.min_dv,
+                            self.cfg.dv_rule(),
                             &self.alpha,
                             self.cfg.fine_ranks as usize,
                         )
@@ -394,7 +411,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                             coeff,
                             &dp,
                             &dv,
-                            self.cfg.min_dv,
+                            self.cfg.dv_rule(),
                         )
                     };
                     if updated.is_err() {
@@ -420,8 +437,20 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 let gain = self.cfg.trial_secant;
                 if gain > 0.0 {
                     let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
-                    let min_dv = self.cfg.min_dv;
-                    if rules::secant_update(&mut self.a_bar, gain, &dp, &dv, min_dv).is_err() {
+                    let rule = self.cfg.dv_rule();
+                    let updated = if self.cfg.forward_secant {
+                        rules::forward_secant_update(&mut self.j_fwd, gain, &dp, &dv, rule).map(
+                            |()| {
+                                // a singular J keeps the last step's matrix
+                                if let Some(a) = rules::pseudo_inverse(&transpose(&self.j_fwd)) {
+                                    self.a_bar = transpose(&a);
+                                }
+                            },
+                        )
+                    } else {
+                        rules::secant_update(&mut self.a_bar, gain, &dp, &dv, rule)
+                    };
+                    if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
                 }
@@ -437,11 +466,30 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 if !tr.learn {
                     // held for the trial's later fine moves
                     self.a_bar = a;
+                    if self.cfg.forward_secant {
+                        // the forward Jacobian whose least-squares step is A_bar's
+                        self.j_fwd = rules::pseudo_inverse(&a).unwrap_or([[0.0; M]; D]);
+                    }
                 }
                 a
             }
         };
-        let p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, self.cfg.pressure_limit);
+        let limit = self.cfg.pressure_limit;
+        let mut p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, f32::INFINITY);
+        let w = self.cfg.map_step;
+        if w > 0.0 && !tr.learn && tr.outcome.fine_moves == 0 {
+            // the map's step (StageConfig::map_step): the coarse map's output at the target
+            // plus its error where the coarse move arrived, P_bar(target) + p - P_bar(v)
+            self.ranking
+                .compute(&self.net.w, v, scratch, self.rank_mode);
+            let ranks = self.cfg.coarse_ranks as usize;
+            let p_v = rules::coarse_output(&self.net, &self.ranking, &self.alpha, v, ranks);
+            for m in 0..M {
+                let by_map = tr.p_last[m] + tr.p_map[m] - p_v[m];
+                p_fine[m] = w * by_map + (1.0 - w) * p_fine[m];
+            }
+        }
+        let p_fine = rules::clamp(&p_fine, limit);
         tr.p_prev = tr.p_last;
         tr.v_prev = *v;
         tr.p_last = p_fine;
@@ -475,8 +523,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> StageLaw<D,
     ) -> Result<[f32; M]> {
         self.begin_with(target, supervised, learn, fine, scratch)
     }
-    fn observe(&mut self, u: &[f32; D]) -> Result<StageStep<M>> {
-        Stage::observe(self, u)
+    fn observe(&mut self, u: &[f32; D], scratch: &mut RankScratch) -> Result<StageStep<M>> {
+        Stage::observe(self, u, scratch)
     }
     fn abort(&mut self) {
         Stage::abort(self)
@@ -501,8 +549,14 @@ mod tests {
     /// The errors after the coarse move and 3 fine moves of a mature trial, with every
     /// neuron's map `A0` (so the averaged Jacobian is `A0`), and whether the tables changed.
     fn errors(gain: f32) -> ([f32; 4], bool) {
+        errors_with(gain, false)
+    }
+
+    /// [`errors`] with the trial's secant in its forward form or not.
+    fn errors_with(gain: f32, forward: bool) -> ([f32; 4], bool) {
         let mut cfg = Config::project_default().stage1;
         cfg.trial_secant = gain;
+        cfg.forward_secant = forward;
         cfg.min_dv = 1e-3;
         let mut s: Stage<4, 2, 2, 4> = Stage::new(cfg);
         s.set_config(cfg).unwrap();
@@ -524,7 +578,7 @@ mod tests {
         for e in out.iter_mut() {
             let v = arm(&p);
             *e = distance(&v, &TARGET);
-            match s.observe(&v).unwrap() {
+            match s.observe(&v, &mut RankScratch::new()).unwrap() {
                 StageStep::Move(next) => p = next,
                 StageStep::Done(o) => assert_eq!(o.skipped_updates, 0),
             }
@@ -553,5 +607,87 @@ mod tests {
         let (e3, _) = errors(Config::project_default().stage1.trial_secant);
         let (e0, _) = errors(0.0);
         assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
+    }
+
+    #[test]
+    fn the_forward_secant_corrects_the_gain_within_the_trial_and_learns_nothing() {
+        // full gain: the first move's secant gives J its true gain along dp, and the
+        // least-squares step of the corrected J lands the second fine move on the target
+        let (e, changed) = errors_with(1.0, true);
+        assert!(!changed, "nothing is learned in mature operation");
+        assert!(
+            (e[1] / e[0] - 0.5).abs() < 1e-3,
+            "the first fine move is the paper's"
+        );
+        assert!(e[2] < 1e-3 * e[0], "{e:?}");
+        // partial gain: better than no correction at every later move
+        let (e3, _) = errors_with(0.3, true);
+        let (e0, _) = errors(0.0);
+        assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
+    }
+
+    /// A mature trial's first fine move with the map's step: `map_step` of
+    /// `p + P_bar(target) - P_bar(v)` (the coarse output at the reached position from a
+    /// ranking there) and the rest of the Jacobian's step; a learning trial keeps the
+    /// Jacobian's step.
+    #[test]
+    fn the_maps_step_blends_the_coarse_maps_correction_into_the_first_fine_move() {
+        let first_fine = |w: f32, learn: bool| {
+            let mut cfg = Config::project_default().stage1;
+            cfg.map_step = w;
+            cfg.min_dv = 1e-3;
+            // the average dominated by the nearest neuron, whose map differs at v and target
+            cfg.alpha_range = 0.5;
+            cfg.mature_tolerance = 0.0;
+            cfg.tolerance.floor = 0.0;
+            let mut s: Stage<4, 2, 2, 4> = Stage::new(cfg);
+            s.set_config(cfg).unwrap();
+            // neurons 30 px apart along x with pressures that differ by more than their
+            // Jacobians (A0) say, so the map's step and the Jacobian's differ
+            for k in 0..4 {
+                let w = [V0[0] + 30.0 * k as f32, V0[1]];
+                s.net_mut()
+                    .set_neuron(k, w, [0.2 * k as f32, -0.1 * k as f32], A0);
+            }
+            let mut scratch = RankScratch::new();
+            let p0 = s
+                .begin_with(&TARGET, None, learn, FineMoves::Exactly(2), &mut scratch)
+                .unwrap();
+            let v = [V0[0] + 2.0, V0[1] + 1.0];
+            let StageStep::Move(p1) = s.observe(&v, &mut scratch).unwrap() else {
+                panic!("a fine move follows");
+            };
+            // what the rule says, from the parts
+            let mut r: Ranking<4> = Ranking::new();
+            r.compute(s.net().weights(), &v, &mut scratch, RankMode::FullSort);
+            let alpha = Falloff::<4>::compute(cfg.alpha_range);
+            let ranks = cfg.coarse_ranks as usize;
+            let p_v = rules::coarse_output(s.net(), &r, &alpha, &v, ranks);
+            r.compute(s.net().weights(), &TARGET, &mut scratch, RankMode::FullSort);
+            let p_t = rules::coarse_output(s.net(), &r, &alpha, &TARGET, ranks);
+            let a = rules::mean_jacobian(s.net(), &r, &alpha, cfg.fine_ranks as usize);
+            let by_jacobian = rules::fine_output(&p0, &a, &TARGET, &v, f32::INFINITY);
+            (
+                p1,
+                by_jacobian,
+                core::array::from_fn::<f32, 2, _>(|m| p0[m] + p_t[m] - p_v[m]),
+            )
+        };
+        for w in [0.0, 0.5, 1.0] {
+            let (got, by_jacobian, by_map) = first_fine(w, false);
+            for m in 0..2 {
+                let want = w * by_map[m] + (1.0 - w) * by_jacobian[m];
+                assert!(
+                    (got[m] - want).abs() < 1e-5,
+                    "w {w}: {got:?} against {want}"
+                );
+            }
+            let differ = (0..2).any(|m| (by_map[m] - by_jacobian[m]).abs() > 1e-2);
+            assert!(differ, "the two steps differ: {by_map:?} {by_jacobian:?}");
+        }
+        // while learning the fine move is the paper's, whatever the weight
+        let (learned, _, _) = first_fine(1.0, true);
+        let (paper, _, _) = first_fine(0.0, true);
+        assert_eq!(learned, paper);
     }
 }

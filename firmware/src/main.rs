@@ -230,7 +230,7 @@ impl Phases {
                 cfg.trial_secant,
                 core::hint::black_box(&dp),
                 core::hint::black_box(&seen),
-                cfg.min_dv,
+                cfg.dv_rule(),
             );
             core::hint::black_box(rules::fine_output(
                 &[0.1; 5],

@@ -60,9 +60,12 @@ impl Bytes {
         self.f32(s.mature_tolerance);
         self.u8(s.max_fine_moves);
         self.u8(s.min_fine_moves_learning);
+        self.f32(s.min_dv);
+        self.f32(s.dv_noise);
+        self.f32(s.trial_secant);
+        self.f32(s.map_step);
+        self.u8(s.forward_secant.into());
         for x in [
-            s.min_dv,
-            s.trial_secant,
             s.pressure_limit,
             s.input_min,
             s.input_max,

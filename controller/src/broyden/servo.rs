@@ -313,7 +313,7 @@ impl<const D: usize, const M: usize> StageLaw<D, M> for BroydenStage<D, M> {
     ) -> Result<[f32; M]> {
         self.begin_with(target, supervised.is_some(), fine)
     }
-    fn observe(&mut self, u: &[f32; D]) -> Result<StageStep<M>> {
+    fn observe(&mut self, u: &[f32; D], _scratch: &mut RankScratch) -> Result<StageStep<M>> {
         BroydenStage::observe(self, u)
     }
     fn abort(&mut self) {

@@ -2,7 +2,7 @@
 //! fingerprint, whether or not the servo is built. Numbers only.
 
 /// The Broyden servo's constants (one set for both stages).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BroydenConfig {
     /// Pressure of every joint for the first move of a trial (normalised, in `[-1, 1]`).
     pub home: f32,

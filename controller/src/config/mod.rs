@@ -10,7 +10,7 @@ pub use broyden::{BroydenConfig, ZERO_BROYDEN};
 use libm::{expf, sqrtf};
 
 /// How a learning rate decays with the learning step `t`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum TimeDecay {
     /// `exp(-t / lambda)` (8.10, 8.13, 8.16).
     Exp {
@@ -43,7 +43,7 @@ impl TimeDecay {
 ///
 /// `floor` is an extension of the paper (default 0 = off): a floor on the time decay keeps
 /// the network learning for life, so that it follows drift and wear.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Rate {
     /// Prefactor (the paper's epsilon).
     pub eps: f32,
@@ -77,7 +77,7 @@ impl Rate {
 }
 
 /// The tolerance schedule (8.7): `tol(t) = base + amplitude * exp(-t / tau)`, never below `floor`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Tolerance {
     /// Final tolerance (pixels): 0.1 in the paper.
     pub base: f32,
@@ -103,7 +103,7 @@ impl Tolerance {
 }
 
 /// Random initial values of the tables ("all initialised randomly", Sec. 8.4.1).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Init {
     /// Range of x coordinates of the weights (pixels).
     pub x: (f32, f32),
@@ -116,7 +116,7 @@ pub struct Init {
 }
 
 /// The tunables of one network (stage 1 or stage 2).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageConfig {
     /// Range of the averaging weights `alpha(r) = exp(-r / alpha_range)` (8.6): 10.
     pub alpha_range: f32,
@@ -153,10 +153,30 @@ pub struct StageConfig {
     pub min_fine_moves_learning: u8,
     /// Below this `||dv||` (pixels) the Jacobian update is skipped ([`crate::Error::ZeroLengthDv`]).
     pub min_dv: f32,
+    /// Regularisation of the Jacobian rule's normalisation (pixels): `1 / (||dv||^2 +
+    /// dv_noise^2)` instead of the `1 / ||dv||^2` of (8.15, 8.21), in the tables' rule and
+    /// in the trial's secant (`0` = the paper). A move not much longer than the camera noise
+    /// in `dv` then teaches less (the normalised LMS rule's regularised form). A deviation,
+    /// off in every preset; the study `studies/precision.toml` measures it.
+    pub dv_noise: f32,
     /// Gain of the trial's secant correction of the averaged Jacobian in mature operation
     /// (`0` = off, the paper). A deviation, named and measured on the project's value
     /// (`TRIAL_SECANT` in this module); the rule is [`crate::rules::secant_update`].
     pub trial_secant: f32,
+    /// Weight of the map's step in a mature trial's first fine move (`0` = off, the paper):
+    /// that move blends `map_step` of `p + P_bar(target) - P_bar(v)` (the coarse map's own
+    /// correction: its output at the target plus its error at the position the coarse move
+    /// reached, one more ranking at `v`) with `1 - map_step` of the averaged Jacobian's step
+    /// (8.14). A deviation, off in every preset; the study `studies/precision.toml` measures
+    /// it ([`crate::stage`]).
+    pub map_step: f32,
+    /// The trial's secant correction ([`StageConfig::trial_secant`]) made on a forward
+    /// Jacobian `J` (pixels per pressure unit: "good" Broyden, `J += g (dv - J dp) dp^T /
+    /// ||dp||^2`), started from the pseudo-inverse of the averaged Jacobian, each later fine
+    /// move the pseudo-inverse of `J` (`false` = the rank-one rule on `A_bar` itself,
+    /// regressing `dp` on the noisy `dv`). A deviation, off in every preset; the study
+    /// `studies/precision.toml` measures it ([`crate::rules::forward_secant_update`]).
+    pub forward_secant: bool,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -170,6 +190,15 @@ pub struct StageConfig {
 }
 
 impl StageConfig {
+    /// The moves the Jacobian rule learns from ([`StageConfig::min_dv`],
+    /// [`StageConfig::dv_noise`]).
+    pub const fn dv_rule(&self) -> crate::rules::DvRule {
+        crate::rules::DvRule {
+            min: self.min_dv,
+            noise: self.dv_noise,
+        }
+    }
+
     /// The neighbourhood range of the learning rates at step `t`.
     pub fn sigma_at(&self, t: u32) -> f32 {
         self.sigma + (self.sigma_start - self.sigma) * expf(-(t as f32) / self.sigma_tau)
@@ -177,7 +206,7 @@ impl StageConfig {
 }
 
 /// The whole controller configuration.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Config {
     /// Stage 1 (1000 neurons, 8-D lights to 5 pressures).
     pub stage1: StageConfig,
@@ -346,7 +375,10 @@ impl Config {
             max_fine_moves: 20,
             min_fine_moves_learning: 1,
             min_dv: 1e-3,
+            dv_noise: 0.0,
             trial_secant: 0.0,
+            map_step: 0.0,
+            forward_secant: false,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -463,7 +495,10 @@ const ZERO_STAGE: StageConfig = StageConfig {
     max_fine_moves: 0,
     min_fine_moves_learning: 0,
     min_dv: 0.0,
+    dv_noise: 0.0,
     trial_secant: 0.0,
+    map_step: 0.0,
+    forward_secant: false,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,

@@ -90,7 +90,7 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
             s.abort();
             continue;
         };
-        let step = s.observe(&v0);
+        let step = s.observe(&v0, &mut scratch);
         s.abort();
         let Ok(StageStep::Move(p1)) = step else {
             continue;

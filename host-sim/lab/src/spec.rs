@@ -215,9 +215,10 @@ pub struct RunSpec {
     pub trials_left: bool,
     /// The files the run writes.
     pub outputs: Outputs,
-    /// A controller configuration no profile describes (tuning, tests): given to the
-    /// in-process controller directly instead of through the session configuration.
-    #[serde(skip)]
+    /// A controller configuration no profile describes (tuning, tests, a study's controller
+    /// keys): given to the in-process controller directly instead of through the session
+    /// configuration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controller_override: Option<Config>,
     /// The in-process controller node speaks protocol version 3 (`NodeConfig::HOST_V3`):
     /// the test suite's fixture of an old controller (no option of `trn`).

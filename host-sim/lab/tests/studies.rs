@@ -328,3 +328,99 @@ fn study_files_name_what_is_wrong_in_them() {
     let e = refused(&row(""), &only);
     assert!(e.contains("\"nope\"") && e.contains("--configs"), "{e}");
 }
+
+/// Controller keys: a row's `controller` table and an axis's `controller.` keys set fields of
+/// the controller's configuration (`*` both stages), on top of the profile's; a row without
+/// them runs the profile's configuration through the session; two configurations that
+/// differ only in them never share a run file.
+#[test]
+fn controller_keys_set_the_controller_configuration() {
+    let text = r#"
+name = "keys"
+seeds = [1]
+[base]
+plant = "ideal"
+trials = 3
+[[row]]
+key = "plain"
+[[row]]
+key = "tuned"
+controller = { "*.map_step" = 0.7, "stage1.dv_noise" = 2, "stage2.forward_secant" = true }
+[[axis]]
+key = "controller.stage2.trial_secant"
+values = [0.0, 0.5]
+"#;
+    let dir = scratch("controller-keys");
+    let study = StudyFile::parse(text, "keys.toml")
+        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+        .unwrap();
+    assert_eq!(study.jobs.len(), 4);
+    let profile = study.jobs[0].spec.profile_config();
+    for job in &study.jobs {
+        let got = job
+            .spec
+            .controller_override
+            .expect("every row has the axis's key");
+        let mut want = profile;
+        want.stage2.trial_secant = if job.row.name.contains("0.5") {
+            0.5
+        } else {
+            0.0
+        };
+        if job.row.key.starts_with("tuned") {
+            want.stage1.map_step = 0.7;
+            want.stage2.map_step = 0.7;
+            want.stage1.dv_noise = 2.0;
+            want.stage2.forward_secant = true;
+        }
+        assert_eq!(got, want, "{}", job.row.name);
+    }
+    let names: std::collections::HashSet<String> =
+        study.jobs.iter().map(|j| j.file_name()).collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+    // without controller keys: no override, the profile's configuration over the session
+    let plain = StudyFile::parse(
+        "name = \"p\"\nseeds = [1]\n[[row]]\nkey = \"plain\"\n",
+        "p.toml",
+    )
+    .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+    .unwrap();
+    assert!(plain.jobs[0].spec.controller_override.is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A controller key that is not a field, of the wrong type, or naming a whole table:
+/// refused before anything runs, naming the key.
+#[test]
+fn controller_keys_name_what_is_wrong_in_them() {
+    let row = |body: &str| format!("name = \"t\"\nseeds = [1]\n[[row]]\nname = \"r\"\n{body}\n");
+    let e = refused(
+        &row(r#"controller = { "*.map_stepp" = 0.7 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("unknown controller key `*.map_stepp`") && e.contains("study t, r"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"controller = { "stage1.forward_secant" = 1.0 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("controller key `stage1.forward_secant` takes boolean"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"controller = { "stage1" = 1.0 }"#),
+        &Overrides::default(),
+    );
+    assert!(e.contains("controller key `stage1` is a table"), "{e}");
+    let e = refused(
+        "name = \"t\"\nseeds = [1]\n[[axis]]\nkey = \"controller.stage3.sigma\"\nvalues = [1.0]\n",
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("`stage3.sigma`") && e.contains("stage1, stage2"),
+        "{e}"
+    );
+}

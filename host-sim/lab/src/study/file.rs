@@ -17,10 +17,12 @@
 //! key = "project"                 # for --configs (default: the name as a file name)
 //! preset = "project"              # preset, ablation, law, and any key of [base]
 //! set = { "realism.load_width_gain" = 0.0 }   # plant keys: any key of sim.toml
+//! controller = { "*.map_step" = 0.7 }  # controller keys: any field of the configuration
 //! copy = { from = "realistic", keys = ["realism.creep_fraction"] }  # keys of another plant
 //!
 //! [[axis]]                        # a grid axis: every row is crossed with every value
-//! key = "joints.*.hysteresis_width"   # a plant key, or preset, ablation, law, plant, trials...
+//! key = "joints.*.hysteresis_width"   # a plant key, `controller.` and a controller key,
+//!                                     # or preset, ablation, law, plant, trials...
 //! values = [0.05, 0.15, 0.25]
 //! ```
 //!
@@ -30,6 +32,13 @@
 //! replaces the plant, then every `copy` and every `set` applies in that order; the result
 //! is validated by the simulator's own validation ([`SimConfig::validate`]), and an error
 //! names the configuration and the key.
+//!
+//! A controller key is a dotted path into the controller's configuration as the profile
+//! (preset, ablation, law) builds it for the plant's images (`trn_controller::Config`:
+//! `stage1.trial_secant`, `stage2.j.eps`; `*` for every entry that has the rest of the path:
+//! `*.map_step` sets both stages). A configuration with controller keys runs in process on
+//! that configuration (a tuning run: no checkpoints or tables), recorded in its report's
+//! specification.
 
 use std::path::{Path, PathBuf};
 
@@ -39,7 +48,7 @@ use trn_controller::presets::{Ablation, Preset};
 use trn_controller::Law;
 use trn_plant::SimConfig;
 
-use super::keys::{get, set};
+use super::keys::{get, set, CONTROLLER, PLANT};
 use super::{slug, Row, Study, Table};
 use crate::error::{io, LabError, Result};
 use crate::spec::{Command, RunSpec};
@@ -128,6 +137,9 @@ pub struct Settings {
     /// Plant keys and their values.
     #[serde(default)]
     pub set: toml::Table,
+    /// Controller keys and their values.
+    #[serde(default)]
+    pub controller: toml::Table,
 }
 
 /// Plant keys taken from another plant (`copy = { from = "realistic", keys = [...] }`).
@@ -335,9 +347,17 @@ struct Configuration {
     layers: Vec<Settings>,
 }
 
-/// One axis value as a layer: a setting, or a plant key.
+/// One axis value as a layer: a setting, a controller key (`controller.` first) or a plant
+/// key.
 fn axis_layer(key: &str, value: &Value) -> std::result::Result<Settings, String> {
-    if SETTINGS.contains(&key) {
+    if let Some(key) = key.strip_prefix("controller.") {
+        let mut controller = toml::Table::new();
+        controller.insert(key.to_string(), value.clone());
+        Ok(Settings {
+            controller,
+            ..Settings::default()
+        })
+    } else if SETTINGS.contains(&key) {
         let mut t = toml::Table::new();
         t.insert(key.to_string(), value.clone());
         Value::Table(t)
@@ -372,14 +392,14 @@ fn resolve(layers: &[&Settings], dir: &Path) -> std::result::Result<(RunSpec, bo
             let from = Value::try_from(&from).map_err(|e| e.to_string())?;
             for key in &c.keys {
                 let v = get(&from, key)?;
-                set(&mut tree, key, &v)?;
+                set(&mut tree, PLANT, key, &v)?;
                 changed = true;
             }
         }
     }
     for l in layers {
         for (key, v) in &l.set {
-            set(&mut tree, key, v)?;
+            set(&mut tree, PLANT, key, v)?;
             changed = true;
         }
     }
@@ -396,6 +416,16 @@ fn resolve(layers: &[&Settings], dir: &Path) -> std::result::Result<(RunSpec, bo
         spec.profile.law = l.law.unwrap_or(spec.profile.law);
         spec.plan.fine_moves = l.fine_moves.unwrap_or(spec.plan.fine_moves);
         spec.plan.learn_trials = l.learn_trials.or(spec.plan.learn_trials);
+    }
+    if layers.iter().any(|l| !l.controller.is_empty()) {
+        let mut tree = Value::try_from(spec.profile_config()).map_err(|e| e.to_string())?;
+        for (key, v) in layers.iter().flat_map(|l| &l.controller) {
+            set(&mut tree, CONTROLLER, key, v)?;
+        }
+        let config: trn_controller::Config = tree
+            .try_into()
+            .map_err(|e: toml::de::Error| format!("controller keys: {}", e.message()))?;
+        spec.controller_override = Some(config);
     }
     let p = &mut spec.plan;
     p.trials = last(&|l| l.trials).unwrap_or(p.trials);
