@@ -424,7 +424,8 @@ fn find_runs<P: Sample>(width: u32, samples: &[P], threshold: f64) -> Vec<Run> {
         let mut x = 0;
         while x < row.len() {
             let end = (x + CHUNK).min(row.len());
-            if row[x..end].iter().max().is_some_and(|m| *m <= t) {
+            // no early exit, so that the comparison vectorises
+            if !row[x..end].iter().fold(false, |any, v| any | (*v > t)) {
                 x = end;
                 continue;
             }

@@ -28,6 +28,7 @@
 
 use crate::detect::{Detection, Rejection};
 use crate::error::{check, VisionError};
+use crate::render::{Emitter, Occluder, Scene};
 
 /// The most frames a capture may have.
 pub const MAX_FRAMES: usize = 32;
@@ -58,16 +59,16 @@ impl CaptureProtocol {
                  1 to {MAX_FRAMES} frames and a weight from 1 to the number of frames"
             )));
         }
-        let all = if frames == 32 {
-            u32::MAX
-        } else {
-            (1u32 << frames) - 1
-        };
-        let codes: Vec<u32> = (1..=all as u64)
-            .map(|c| c as u32)
-            .filter(|c| c.count_ones() as usize == weight)
-            .take(lights)
-            .collect();
+        // the codes of `weight` ones among `frames` bits in increasing order (Gosper's
+        // next-permutation of bits), at most `lights` of them
+        let mut codes = Vec::with_capacity(lights);
+        let mut code = u64::MAX >> (64 - weight);
+        while code < 1u64 << frames && codes.len() < lights {
+            codes.push(code as u32);
+            let low = code & code.wrapping_neg();
+            let ripple = code + low;
+            code = ripple | (((code ^ ripple) >> 2) / low);
+        }
         if codes.len() < lights {
             return Err(VisionError::Protocol(format!(
                 "{frames} frames of weight {weight} tell only {} lights apart, not {lights}",
@@ -90,6 +91,28 @@ impl CaptureProtocol {
     /// The frames light `light` is lit in (bit `f` for frame `f`); 0 for no such light.
     pub fn code(&self, light: usize) -> u32 {
         self.codes.get(light).copied().unwrap_or(0)
+    }
+
+    /// The scene of each frame of a capture of `lights` (one emitter per light of the
+    /// protocol, in order), each frame showing the lights lit in it.
+    pub fn scenes(
+        &self,
+        lights: &[Emitter],
+        occluders: &[Occluder],
+    ) -> Result<Vec<Scene>, VisionError> {
+        if lights.len() != self.codes.len() {
+            return Err(VisionError::Protocol(format!(
+                "{} lights where the protocol has {}",
+                lights.len(),
+                self.codes.len()
+            )));
+        }
+        Ok((0..self.frames)
+            .map(|f| Scene {
+                emitters: self.lit(f).into_iter().map(|l| lights[l].clone()).collect(),
+                occluders: occluders.to_vec(),
+            })
+            .collect())
     }
 
     /// The lights lit in frame `frame`.
