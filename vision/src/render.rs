@@ -358,6 +358,10 @@ pub struct Renderer<P: Sample> {
     /// The background pixel's distribution function over digital numbers `lo..`:
     /// `cdf[i] = P(dn <= lo + i)`, the last entry 1.
     cdf: Vec<f64>,
+    /// `cdf` in units of 2^-32, rounded (the last entry 2^32, above every 32-bit draw).
+    cut: Vec<u64>,
+    /// The sample of each entry.
+    value: Vec<P>,
     lo: u32,
     /// `guide[g]` = the first index whose `cdf` exceeds `g / GUIDE`.
     guide: Vec<u32>,
@@ -371,18 +375,21 @@ impl<P: Sample> Renderer<P> {
     pub fn new(sensor: &Sensor) -> Result<Renderer<P>, VisionError> {
         sensor.validate()?;
         let (cdf, lo) = background_cdf(sensor, P::MAX_DN);
+        let scale = 4_294_967_296.0;
+        let cut: Vec<u64> = cdf.iter().map(|c| (c * scale).round() as u64).collect();
         let mut guide = Vec::with_capacity(GUIDE);
         let mut i = 0;
-        for g in 0..GUIDE {
-            let u = g as f64 / GUIDE as f64;
-            while cdf[i] <= u {
+        for g in 0..GUIDE as u64 {
+            while cut[i] <= g << 20 {
                 i += 1;
             }
             guide.push(i as u32);
         }
         Ok(Renderer {
             sensor: sensor.clone(),
+            value: (0..cdf.len() as u32).map(|i| P::from_dn(lo + i)).collect(),
             cdf,
+            cut,
             lo,
             guide,
             sample: PhantomData,
@@ -455,13 +462,13 @@ impl<P: Sample> Renderer<P> {
 
     /// Every pixel a draw of the background's digital number.
     fn fill_background(&self, rng: &mut impl RngCore, frame: &mut Frame<P>) {
+        // a draw u of 32 bits falls on the first entry whose cut exceeds it
         let draw = |u: u32| -> P {
-            let x = u as f64 / 4_294_967_296.0;
             let mut i = self.guide[(u >> 20) as usize] as usize;
-            while self.cdf[i] <= x {
+            while self.cut[i] <= u as u64 {
                 i += 1;
             }
-            P::from_dn(self.lo + i as u32)
+            self.value[i]
         };
         let mut pairs = frame.as_mut().chunks_exact_mut(2);
         for pair in &mut pairs {
