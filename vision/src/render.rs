@@ -401,6 +401,20 @@ impl<P: Sample> Renderer<P> {
         &self.sensor
     }
 
+    /// The distribution of a background pixel's digital number: `(dn, probability)` for
+    /// each number it takes with a probability above about 1e-18, in increasing order.
+    pub fn background_distribution(&self) -> Vec<(u32, f64)> {
+        let mut below = 0.0;
+        (self.lo..)
+            .zip(&self.cdf)
+            .map(|(dn, c)| {
+                let p = c - below;
+                below = *c;
+                (dn, p)
+            })
+            .collect()
+    }
+
     /// The frame of `scene` with the noise of seed `seed`.
     pub fn render(&self, scene: &Scene, seed: u64) -> Result<Frame<P>, VisionError> {
         let mut frame = Frame::new(self.sensor.width, self.sensor.height);

@@ -15,14 +15,13 @@ fn stats(v: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 
 /// Mean and deviation of a background pixel from the tabulated distribution.
 fn table_stats(r: &Renderer<u8>) -> (f64, f64) {
-    let mut prev = 0.0;
-    let (mut m, mut mm) = (0.0, 0.0);
-    for (i, c) in r.cdf.iter().enumerate() {
-        let d = (r.lo + i as u32) as f64;
-        m += (c - prev) * d;
-        mm += (c - prev) * d * d;
-        prev = *c;
+    let (mut m, mut mm, mut total) = (0.0, 0.0, 0.0);
+    for (d, p) in r.background_distribution() {
+        m += p * d as f64;
+        mm += p * (d as f64).powi(2);
+        total += p;
     }
+    assert!((total - 1.0).abs() < 1e-12);
     (m, (mm - m * m).sqrt())
 }
 
