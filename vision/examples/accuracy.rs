@@ -36,6 +36,7 @@ fn report() -> Result<String, VisionError> {
     let nominal = Blob::nominal();
     let mut t = String::new();
     let w = &mut t;
+    let _ = writeln!(w, "```");
     let _ = writeln!(w, "Centroid accuracy of the camera processor on rendered frames (`cargo run --release -p trn-vision --example accuracy`)");
     let _ = writeln!(w, "{}", "=".repeat(100));
     let _ = writeln!(
@@ -128,6 +129,7 @@ fn report() -> Result<String, VisionError> {
             );
         }
     }
+    let _ = writeln!(w, "```");
     Ok(t)
 }
 

@@ -13,6 +13,33 @@
 //! - [`identify`]: an [`Identifier`] tells the lights apart over the frames of a capture.
 //! - [`accuracy`]: the centroid's error on rendered frames against the Cramér-Rao bound.
 //!
+//! ```
+//! use trn_vision::{CaptureProtocol, Detector, DetectorParams, Emitter, Identifier, LightStatus,
+//!                  Renderer, Sensor};
+//!
+//! let sensor = Sensor::machine_vision(1024, 768);
+//! let renderer = Renderer::<u8>::new(&sensor)?;
+//! let detector = Detector::new(1024, 768, DetectorParams::default())?;
+//! // three lights, each lit in two of three frames
+//! let protocol = CaptureProtocol::constant_weight(3, 3, 2)?;
+//! let lights: Vec<Emitter> = [[400.3, 300.8], [450.1, 302.2], [425.6, 340.5]]
+//!     .iter()
+//!     .map(|&c| Emitter::new(c, 1.3, 30_000.0))
+//!     .collect();
+//! let mut detections = Vec::new();
+//! for (f, scene) in protocol.scenes(&lights, &[])?.iter().enumerate() {
+//!     let frame = renderer.render(scene, f as u64)?;
+//!     detections.push(detector.detect(&frame)?);
+//! }
+//! let found = Identifier::new(protocol, 3.0)?.identify(&detections)?;
+//! for (light, id) in lights.iter().zip(&found) {
+//!     assert_eq!(id.status, LightStatus::Valid);
+//!     let c = id.centre.unwrap();
+//!     assert!((c[0] - light.centre[0]).hypot(c[1] - light.centre[1]) < 0.1);
+//! }
+//! # Ok::<(), trn_vision::VisionError>(())
+//! ```
+//!
 //! Coordinates: x to the right, y down; pixel `(i, j)` covers `[i, i + 1) x [j, j + 1)`, its
 //! centre at `(i + 0.5, j + 0.5)`.
 //!
