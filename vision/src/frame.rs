@@ -18,22 +18,19 @@ pub trait Sample: Primitive + Ord + Send + Sync + 'static {
     fn dn(self) -> u32;
 }
 
-impl Sample for u8 {
-    const MAX_DN: u32 = u8::MAX as u32;
-    fn from_dn(dn: u32) -> u8 {
-        dn.min(Self::MAX_DN) as u8
-    }
-    fn dn(self) -> u32 {
-        self as u32
-    }
+macro_rules! sample {
+    ($t:ty) => {
+        impl Sample for $t {
+            const MAX_DN: u32 = <$t>::MAX as u32;
+            fn from_dn(dn: u32) -> $t {
+                dn.min(Self::MAX_DN) as $t
+            }
+            fn dn(self) -> u32 {
+                self as u32
+            }
+        }
+    };
 }
 
-impl Sample for u16 {
-    const MAX_DN: u32 = u16::MAX as u32;
-    fn from_dn(dn: u32) -> u16 {
-        dn.min(Self::MAX_DN) as u16
-    }
-    fn dn(self) -> u32 {
-        self as u32
-    }
-}
+sample!(u8);
+sample!(u16);

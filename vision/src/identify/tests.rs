@@ -112,12 +112,17 @@ fn every_light_is_identified_at_its_centre_and_never_swapped() {
     }
 }
 
+/// Five lights in 4 frames of weight 2: the rig, the lights and the capture's scenes.
+fn grouped(seed: u64) -> (Rig, Vec<Emitter>, Vec<Scene>) {
+    let protocol = CaptureProtocol::constant_weight(5, 4, 2).unwrap();
+    let lights = five_lights(seed);
+    let scenes = protocol.scenes(&lights, &[]).unwrap();
+    (Rig::new(protocol), lights, scenes)
+}
+
 #[test]
 fn a_light_hidden_in_one_frame_is_missing_not_another() {
-    let protocol = CaptureProtocol::constant_weight(5, 4, 2).unwrap();
-    let rig = Rig::new(protocol.clone());
-    let lights = five_lights(1);
-    let mut scenes = protocol.scenes(&lights, &[]).unwrap();
+    let (rig, lights, mut scenes) = grouped(1);
     // a link passes in front of light 1 in frame 2 only (light 1's code is 0101: frames 0, 2)
     let c = lights[1].centre;
     scenes[2].occluders.push(Occluder::in_front(Shape::Capsule {
@@ -133,10 +138,7 @@ fn a_light_hidden_in_one_frame_is_missing_not_another() {
 
 #[test]
 fn a_reflection_beside_a_light_refuses_it_rather_than_swapping() {
-    let protocol = CaptureProtocol::constant_weight(5, 4, 2).unwrap();
-    let rig = Rig::new(protocol.clone());
-    let lights = five_lights(2);
-    let mut scenes = protocol.scenes(&lights, &[]).unwrap();
+    let (rig, lights, mut scenes) = grouped(2);
     // a reflection 1 px from light 0 in frame 2, where light 0 (code 0011) is dark: light 0's
     // track then reads 0111, weight 3, which is no light's code
     let mut glint = lights[0].clone();

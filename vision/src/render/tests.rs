@@ -141,16 +141,21 @@ fn moments(f: &Frame<u16>, bg: f64) -> ([f64; 2], [f64; 2]) {
     (m, [m2[0] / m0 - m[0] * m[0], m2[1] / m0 - m[1] * m[1]])
 }
 
-#[test]
-fn motion_smears_a_spot_along_its_path() {
-    // a 16-bit sensor with little noise so that the moments are exact to a few hundredths
-    let s = Sensor {
+/// A 16-bit 64 x 64 sensor with little noise and no saturation, so that moments and sums
+/// are exact to a few hundredths.
+fn quiet() -> Sensor {
+    Sensor {
         gain_dn_per_e: 1.0,
         read_noise_e: 1.0,
         stray_e: 0.0,
         full_well_e: 1e9,
         ..sensor(64, 64)
-    };
+    }
+}
+
+#[test]
+fn motion_smears_a_spot_along_its_path() {
+    let s = quiet();
     let r = Renderer::<u16>::new(&s).unwrap();
     let mut e = Emitter::new([32.2, 31.7], 1.5, 1e6);
     e.motion_px = [8.0, 0.0];
@@ -175,13 +180,7 @@ fn motion_smears_a_spot_along_its_path() {
 
 #[test]
 fn occluders_hide_what_is_behind_them() {
-    let s = Sensor {
-        gain_dn_per_e: 1.0,
-        read_noise_e: 1.0,
-        stray_e: 0.0,
-        full_well_e: 1e9,
-        ..sensor(64, 64)
-    };
+    let s = quiet();
     let r = Renderer::<u16>::new(&s).unwrap();
     let signal = |occluders: Vec<Occluder>, depth: f64| {
         let mut e = Emitter::new([30.0, 30.0], 1.5, 1e5);
