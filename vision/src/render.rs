@@ -30,7 +30,8 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// Spots are computed within this many standard deviations of their path.
 const SPOT_REACH_SIGMAS: f64 = 5.0;
 
-/// A moving spot is integrated at sub-positions this far apart along its path (px).
+/// A moving spot is integrated at sub-positions this far apart along its path (px, times its
+/// deviation when that is above 1 px), each over its own reach.
 const MOTION_STEP_PX: f64 = 0.2;
 
 /// The image sensor and its exposure.
@@ -148,11 +149,11 @@ impl Emitter {
             ">= 0 and <= 1e12",
             |v| (0.0..=1e12).contains(&v),
         )?;
-        check("emitter motion x", self.motion_px[0], "within +-1e4", |v| {
-            v.abs() <= 1e4
+        check("emitter motion x", self.motion_px[0], "within +-1e3", |v| {
+            v.abs() <= 1e3
         })?;
-        check("emitter motion y", self.motion_px[1], "within +-1e4", |v| {
-            v.abs() <= 1e4
+        check("emitter motion y", self.motion_px[1], "within +-1e3", |v| {
+            v.abs() <= 1e3
         })?;
         if self.depth.is_nan() {
             return Err(VisionError::Parameter {
@@ -517,11 +518,12 @@ impl<P: Sample> Renderer<P> {
 /// Adds the mean electrons of spot `e` to `light` over `r`, less what nearer occluders hide.
 fn add_spot(e: &Emitter, occluders: &[Occluder], r: &Rect, light: &mut [f64]) {
     let (nx, ny) = (r.width(), (r.y1 - r.y0) as usize);
-    let path = (e.motion_px[0].hypot(e.motion_px[1]) / MOTION_STEP_PX).ceil() as usize;
-    let steps = path.max(1);
+    let step = MOTION_STEP_PX * e.sigma_px.max(1.0);
+    let steps = ((e.motion_px[0].hypot(e.motion_px[1]) / step).ceil() as usize).max(1);
     let per_step = e.electrons / steps as f64;
-    let mut ax = vec![0.0; nx];
-    let mut ay = vec![0.0; ny];
+    let reach = SPOT_REACH_SIGMAS * e.sigma_px + 1.0;
+    let mut ax = Vec::new();
+    let mut ay = Vec::new();
     let mut spot = vec![0.0; nx * ny];
     for k in 0..steps {
         let t = (k as f64 + 0.5) / steps as f64 - 0.5;
@@ -529,9 +531,24 @@ fn add_spot(e: &Emitter, occluders: &[Occluder], r: &Rect, light: &mut [f64]) {
             e.centre[0] + t * e.motion_px[0],
             e.centre[1] + t * e.motion_px[1],
         ];
-        integrate(&mut ax, r.x0, c[0], e.sigma_px);
-        integrate(&mut ay, r.y0, c[1], e.sigma_px);
-        for (row, y) in spot.chunks_exact_mut(nx).zip(&ay) {
+        // this position's reach within the patch
+        let Some(sub) = Rect::clipped(
+            [c[0] - reach, c[1] - reach],
+            [c[0] + reach, c[1] + reach],
+            r.x1,
+            r.y1,
+        )
+        .filter(|q| q.x1 > r.x0 && q.y1 > r.y0) else {
+            continue;
+        };
+        let (x0, y0) = (sub.x0.max(r.x0), sub.y0.max(r.y0));
+        ax.resize((sub.x1 - x0) as usize, 0.0);
+        ay.resize((sub.y1 - y0) as usize, 0.0);
+        integrate(&mut ax, x0, c[0], e.sigma_px);
+        integrate(&mut ay, y0, c[1], e.sigma_px);
+        let (dx, dy) = ((x0 - r.x0) as usize, (y0 - r.y0) as usize);
+        for (j, y) in ay.iter().enumerate() {
+            let row = &mut spot[(dy + j) * nx + dx..][..ax.len()];
             for (p, x) in row.iter_mut().zip(&ax) {
                 *p += per_step * x * y;
             }

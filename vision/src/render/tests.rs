@@ -351,3 +351,38 @@ fn spots_off_the_frame_and_overlapping_spots_render() {
         f.get_pixel(11, 10).0[0]
     );
 }
+
+#[test]
+fn a_long_smear_keeps_its_electrons_and_a_longer_one_is_refused() {
+    let s = Sensor {
+        width: 1024,
+        ..quiet()
+    };
+    let r = Renderer::<u16>::new(&s).unwrap();
+    let mut e = Emitter::new([512.0, 32.0], 0.5, 2e5);
+    e.motion_px = [900.0, 10.0];
+    let f = r
+        .render(
+            &Scene {
+                emitters: vec![e.clone()],
+                occluders: vec![],
+            },
+            1,
+        )
+        .unwrap();
+    let signal: f64 = f.as_raw().iter().map(|&v| v as f64 - s.offset_dn).sum();
+    // shot noise sqrt(2e5) = 450 e-, read noise 1 e- over 65,536 pixels: 256 e-
+    assert!((signal - 2e5).abs() < 3_000.0, "{signal}");
+    // the smear runs from x = 62 to 962: both ends lit, beyond them dark
+    assert!(f.get_pixel(70, 27).0[0] > 100 && f.get_pixel(955, 36).0[0] > 100);
+    assert!(f.get_pixel(40, 27).0[0] < 20 && f.get_pixel(990, 36).0[0] < 20);
+    e.motion_px = [2_000.0, 0.0];
+    let scene = Scene {
+        emitters: vec![e],
+        occluders: vec![],
+    };
+    assert!(matches!(
+        r.render(&scene, 1),
+        Err(VisionError::Parameter { .. })
+    ));
+}
