@@ -17,6 +17,7 @@ pub mod joint;
 pub mod kinematics;
 pub mod markers;
 pub mod nodes;
+pub mod pixels;
 pub mod random;
 mod readings;
 pub mod stereo;
