@@ -179,6 +179,44 @@ pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: us
     out
 }
 
+/// The coarse output's blend with the smooth map ([`crate::StageConfig::coarse_blend`]):
+/// `(1 - beta) P_bar + beta (P_avg + A_bar (u - w_avg))`, with `P_avg` and `w_avg` the
+/// `alpha`-weighted averages of the neurons' pressures and weights over the coarse move's
+/// ranks and `A_bar` the fine move's averaged Jacobian ([`mean_jacobian`]). `beta = 1`
+/// extrapolates every neuron's map with the average instead of its own `A_k` (8.11 with
+/// `A_k` replaced by `A_bar`), `beta = 1/2` with the mean of the two (second-order blending).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+pub fn blend_coarse<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    alpha: &Falloff<K>,
+    u: &[f32; D],
+    ranks: usize,
+    fine_ranks: usize,
+    p_bar: &[f32; M],
+    beta: f32,
+) -> [f32; M] {
+    let a_bar = mean_jacobian(net, ranking, alpha, fine_ranks);
+    let n = ranks.clamp(1, K);
+    let (mut p_avg, mut w_avg) = ([0.0f32; M], [0.0f32; D]);
+    for (&k, &al) in ranking.indices()[..n].iter().zip(alpha.value.iter()) {
+        let k = k as usize;
+        for (o, x) in p_avg.iter_mut().zip(&net.p[k]) {
+            *o += al * x.get(TABLE_SCALES.p);
+        }
+        for (o, x) in w_avg.iter_mut().zip(&net.w[k]) {
+            *o += al * x.get(TABLE_SCALES.w);
+        }
+    }
+    let norm = 1.0 / alpha.sum(n);
+    let diff: [f32; D] = core::array::from_fn(|d| u[d] - w_avg[d] * norm);
+    core::array::from_fn(|m| {
+        let smooth = p_avg[m] * norm + a_bar[m].iter().zip(&diff).map(|(a, x)| a * x).sum::<f32>();
+        (1.0 - beta) * p_bar[m] + beta * smooth
+    })
+}
+
 /// The start of a learning trial in one pass over the ranked neurons: the weight update
 /// [`update_weights`] towards `u`, then (supervised, `pressures = Some((coeff, p_ref))`)
 /// the pressure update [`update_pressures`] at `x = u`, then [`coarse_output`] at `u` over
@@ -584,72 +622,65 @@ pub fn forward_secant_update<const D: usize, const M: usize>(
 }
 
 /// The Moore-Penrose pseudo-inverse `B^T (B B^T)^-1` of a `R x C` matrix `B` of full row
-/// rank (`R <= C`), regularised by `1e-6` of the trace of `B B^T`; `None` when `B B^T` is
-/// singular or not finite. `A_bar` (`M x D`) gives the forward Jacobian
-/// whose least-squares step is `A_bar`'s own; `J^T` (`M x D`) gives `(J^+)^T`.
+/// rank (`R <= C <= 8`), regularised by `1e-6` of the trace of `B B^T`; `None` when `B B^T`
+/// is singular or not finite. `A_bar` (`M x D`) gives the forward Jacobian whose
+/// least-squares step is `A_bar`'s own; `J^T` (`M x D`) gives `(J^+)^T`.
 pub fn pseudo_inverse<const R: usize, const C: usize>(b: &[[f32; C]; R]) -> Option<[[f32; R]; C]> {
-    let mut g = [[0.0f32; R]; R];
-    for i in 0..R {
-        for k in 0..R {
-            g[i][k] = b[i].iter().zip(&b[k]).map(|(x, y)| x * y).sum();
-        }
-    }
-    let ridge = 1e-6 * (0..R).map(|i| g[i][i]).sum::<f32>();
-    (0..R).for_each(|i| g[i][i] += ridge);
-    invert_in_place(g.as_flattened_mut(), R)?;
-    // B^T G^-1: entry (c, r) = sum_i B[i][c] G^-1[i][r]
-    Some(core::array::from_fn(|c| {
-        core::array::from_fn(|r| (0..R).map(|i| b[i][c] * g[i][r]).sum())
-    }))
+    let mut out = [[0.0; R]; C];
+    pseudo_inverse_into(b.as_flattened(), R, out.as_flattened_mut())?;
+    Some(out)
 }
 
-/// Inverts the `n x n` matrix `m` (row-major) in place by Gauss-Jordan elimination with
-/// partial pivoting (`n <= 8`); one copy for every size. `None` for a singular or
-/// non-finite matrix (`m` untouched).
+/// [`pseudo_inverse`] on row-major slices (`b`: `r x c`, `out`: `c x r`); one copy for every
+/// size, so that the firmware's flash holds no copy per stage.
 #[inline(never)]
-fn invert_in_place(m: &mut [f32], n: usize) -> Option<()> {
-    let mut inv = [0.0f32; 64];
-    let mut a = [0.0f32; 64];
-    if n > 8 || m.len() != n * n {
+fn pseudo_inverse_into(b: &[f32], r: usize, out: &mut [f32]) -> Option<()> {
+    const MAX: usize = 8;
+    let c = b.len() / r.max(1);
+    if r == 0 || r > MAX || c > MAX || b.len() != r * c || out.len() != r * c {
         return None;
     }
-    a[..n * n].copy_from_slice(m);
-    (0..n).for_each(|i| inv[i * n + i] = 1.0);
-    for col in 0..n {
-        let pivot = (col..n)
-            .max_by(|&x, &y| a[x * n + col].abs().total_cmp(&a[y * n + col].abs()))
-            .unwrap_or(col);
-        let pv = a[pivot * n + col];
+    // G = B B^T + ridge, then Gauss-Jordan with partial pivoting on [G | I]
+    let mut g = [[0.0f32; 2 * MAX]; MAX];
+    for i in 0..r {
+        for k in 0..r {
+            g[i][k] = (0..c).map(|j| b[i * c + j] * b[k * c + j]).sum();
+        }
+        g[i][r + i] = 1.0;
+    }
+    let ridge = 1e-6 * (0..r).map(|i| g[i][i]).sum::<f32>();
+    (0..r).for_each(|i| g[i][i] += ridge);
+    for col in 0..r {
+        let mut pivot = col;
+        for row in col + 1..r {
+            if g[row][col].abs() > g[pivot][col].abs() {
+                pivot = row;
+            }
+        }
+        g.swap(pivot, col);
+        let pv = g[col][col];
         if !(pv.abs() > 0.0 && pv.is_finite()) {
             return None;
         }
-        if pivot != col {
-            for c in 0..n {
-                a.swap(pivot * n + c, col * n + c);
-                inv.swap(pivot * n + c, col * n + c);
-            }
-        }
-        let s = 1.0 / pv;
-        for c in 0..n {
-            a[col * n + c] *= s;
-            inv[col * n + c] *= s;
-        }
-        for r in 0..n {
-            let f = a[r * n + col];
-            if r == col || f == 0.0 {
-                continue;
-            }
-            for c in 0..n {
-                a[r * n + c] -= f * a[col * n + c];
-                inv[r * n + c] -= f * inv[col * n + c];
+        let inv = 1.0 / pv;
+        g[col][..2 * r].iter_mut().for_each(|x| *x *= inv);
+        let pivot_row = g[col];
+        for (row, line) in g[..r].iter_mut().enumerate() {
+            let f = line[col];
+            if row != col && f != 0.0 {
+                for (x, p) in line[..2 * r].iter_mut().zip(&pivot_row[..2 * r]) {
+                    *x -= f * p;
+                }
             }
         }
     }
-    if inv[..n * n].iter().any(|x| !x.is_finite()) {
-        return None;
+    // B^T G^-1: entry (j, k) = sum_i B[i][j] G^-1[i][k]
+    for j in 0..c {
+        for k in 0..r {
+            out[j * r + k] = (0..r).map(|i| b[i * c + j] * g[i][r + k]).sum();
+        }
     }
-    m.copy_from_slice(&inv[..n * n]);
-    Some(())
+    out.iter().all(|x| x.is_finite()).then_some(())
 }
 
 #[cfg(test)]

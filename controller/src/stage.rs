@@ -291,6 +291,14 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 self.cfg.coarse_ranks as usize,
             )
         };
+        let beta = self.cfg.coarse_blend;
+        let p_bar = if beta > 0.0 {
+            let (ranks, fine) = (self.cfg.coarse_ranks as usize, self.cfg.fine_ranks as usize);
+            let (net, r, al) = (&self.net, &self.ranking, &self.alpha);
+            rules::blend_coarse(net, r, al, target, ranks, fine, &p_bar, beta)
+        } else {
+            p_bar
+        };
         let p_map = p_bar;
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {

@@ -170,6 +170,12 @@ pub struct StageConfig {
     /// (8.14). A deviation, off in every preset; the study `studies/precision.toml` measures
     /// it ([`crate::stage`]).
     pub map_step: f32,
+    /// Weight of the smooth map in the coarse output (`0` = off, the paper's 8.5/8.11):
+    /// every neuron's local map extrapolated to the target with the averaged Jacobian
+    /// `A_bar` (the fine move's) instead of its own `A_k`, blended by this weight
+    /// ([`crate::rules::blend_coarse`]; one more averaged Jacobian per trial). A deviation,
+    /// off in every preset; the study `studies/precision.toml` measures it.
+    pub coarse_blend: f32,
     /// The trial's secant correction ([`StageConfig::trial_secant`]) made on a forward
     /// Jacobian `J` (pixels per pressure unit: "good" Broyden, `J += g (dv - J dp) dp^T /
     /// ||dp||^2`), started from the pseudo-inverse of the averaged Jacobian, each later fine
@@ -378,6 +384,7 @@ impl Config {
             dv_noise: 0.0,
             trial_secant: 0.0,
             map_step: 0.0,
+            coarse_blend: 0.0,
             forward_secant: false,
             pressure_limit: 1.0,
             input_min: -1000.0,
@@ -498,6 +505,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     dv_noise: 0.0,
     trial_secant: 0.0,
     map_step: 0.0,
+    coarse_blend: 0.0,
     forward_secant: false,
     pressure_limit: 0.0,
     input_min: 0.0,
