@@ -88,6 +88,15 @@ impl From<PlantError> for LabError {
     }
 }
 
+impl From<trn_transport::board::BoardError> for LabError {
+    fn from(e: trn_transport::board::BoardError) -> Self {
+        match e {
+            trn_transport::board::BoardError::Usage(m) => LabError::Usage(m),
+            trn_transport::board::BoardError::Io { path, source } => LabError::Io { path, source },
+        }
+    }
+}
+
 impl From<trn_protocol::Error> for LabError {
     fn from(e: trn_protocol::Error) -> Self {
         LabError::Transport(TransportError::Bus(e))

@@ -19,11 +19,10 @@
 //!   them ([`sim_state`], with the curve a continued run takes over: [`history`]).
 //! - Figures as text ([`format`](mod@format): the studies' tables, the lines of the summary the command
 //!   line prints).
-//! - The controller's learned tables: [`board`] boots the host's controller with its store
+//! - The controller's learned tables: [`trn_transport::board`] boots the host's controller with its store
 //!   (in memory or a tables file); [`tables`] reads them out over the bus, writes a
 //!   checkpoint in, and begins a session on a controller that may hold learned tables.
 
-pub mod board;
 pub mod checkpoint_file;
 pub mod compare;
 pub mod conformance;

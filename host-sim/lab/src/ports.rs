@@ -25,7 +25,7 @@ impl ControllerPort for SimulatedBus<Controller> {
     }
 }
 
-impl ControllerPort for SimulatedBus<crate::board::Board> {
+impl ControllerPort for SimulatedBus<trn_transport::board::Board> {
     fn controller(&self) -> Option<&Controller> {
         Some(&SimulatedBus::controller(self).ctrl)
     }

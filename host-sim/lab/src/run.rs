@@ -14,7 +14,6 @@ use trn_protocol::BusMode;
 use trn_transport::inproc::SimulatedBus;
 use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, TransportError};
 
-use crate::board;
 use crate::checkpoint_file;
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
@@ -28,6 +27,7 @@ use crate::session::{Setup, Start};
 use crate::sim_state;
 use crate::spec::{Command, RunSpec};
 use crate::tables::opening::{Opening, Want};
+use trn_transport::board;
 
 /// Runs a specification: training (if `plan.trials > 0`), the held-out evaluation and
 /// grasps, or the conformance suite; writes the report, the candump log and the checkpoint

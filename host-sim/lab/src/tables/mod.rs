@@ -18,7 +18,7 @@ mod tests;
 use embedded_can::blocking::Can;
 use trn_controller::presets::{Ablation, ImageSize, Preset};
 use trn_controller::Law;
-use trn_node::codes::{self, table_op, table_reason};
+use trn_node::codes::{self, table_op};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
     CanFrame, GuardNonce, GuardOp, GuardRequest, Message, NodeId, ProtocolVersion, StoreCommand,
@@ -32,6 +32,7 @@ use crate::error::{LabError, Result};
 use crate::rig::Event;
 pub use crate::runner::guard_refusal;
 use crate::runner::Runner;
+pub use trn_transport::board::tables_failure;
 
 /// How many requests of a transfer (chunks read, chunks written) are in flight at once: a
 /// round trip per eight chunks instead of one per chunk, few enough for a board's receive
@@ -218,49 +219,6 @@ pub(crate) fn retry_with_new_nonce(detail: u32) -> bool {
             || r == trn_node::Refusal::Used as u32
             || r == trn_node::Refusal::Wrong as u32
     )
-}
-
-/// A `TABLES_FAILED` detail in words.
-pub fn tables_failure(detail: u32) -> String {
-    let op = match (detail >> 8) & 0xFF {
-        table_op::READ => "reading a chunk",
-        table_op::WRITE_BEGIN => "beginning a write",
-        table_op::WRITE_CHUNK => "writing a chunk",
-        table_op::APPLY => "applying the image written in",
-        table_op::SAVE => "saving",
-        table_op::ERASE => "erasing",
-        _ => "an operation on its tables",
-    };
-    let extra = detail >> 16;
-    let why = match detail & 0xFF {
-        table_reason::NO_TABLES => "it holds no TRN tables".to_string(),
-        table_reason::NO_STORE => "it has no store for its tables".to_string(),
-        table_reason::BUSY => "it is busy (not Idle, or a trial runs)".to_string(),
-        table_reason::OUT_OF_RANGE => "out of range".to_string(),
-        table_reason::NOT_STARTED => "no write in progress".to_string(),
-        table_reason::INCOMPLETE => "not every chunk came".to_string(),
-        table_reason::CRC_MISMATCH => "the image's CRC is not the one announced".to_string(),
-        table_reason::FINGERPRINT_MISMATCH => {
-            "the image's configuration is not the one announced".to_string()
-        }
-        table_reason::IMAGE => format!(
-            "it refused the image ({})",
-            match extra {
-                0 => "length",
-                1 => "magic",
-                2 => "format version",
-                3 => "network shapes",
-                4 => "CRC",
-                5 => "contents: learning steps or values beyond what it holds",
-                6 => "changed while read",
-                _ => "another reason",
-            }
-        ),
-        table_reason::FLASH => format!("its flash failed (code {extra})"),
-        table_reason::CHANGED => "the tables changed during the save".to_string(),
-        r => format!("reason {r}"),
-    };
-    format!("{op} failed: {why}")
 }
 
 /// The named configuration (preset, ablation, law) whose fingerprint is `fingerprint` for

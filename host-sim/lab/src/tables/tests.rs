@@ -18,10 +18,10 @@ use trn_transport::inproc::SimulatedBus;
 
 use super::opening::{open, Opening, Want};
 use super::{read, status, write};
-use crate::board::{self, Board};
 use crate::observe::Observer;
 use crate::rig::Rig;
 use crate::runner::{Runner, Timing};
+use trn_transport::board::{self, Board};
 
 type Bus = SimulatedBus<Board>;
 

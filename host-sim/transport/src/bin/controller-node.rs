@@ -36,7 +36,7 @@ fn run(a: &Args) -> Result<(), String> {
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
     use trn_controller::presets::{self, Ablation, ImageSize, Preset};
-    use trn_lab::board;
+    use trn_transport::board;
     use trn_transport::{controller_loop, WallClock};
     // the reset configuration of a board: the project preset for the default cameras,
     // tables seeded with 1; a session's `SessionConfig` replaces both

@@ -22,7 +22,35 @@ use trn_controller::{Config, Controller};
 use trn_node::{ControllerNode, NodeConfig};
 use trn_store::{FlashStore, RamFlash, RamFlashError, RestoreError};
 
-use crate::error::{io, LabError, Result};
+use trn_node::codes::{table_op, table_reason};
+
+/// What a host board's store refused: the tables file cannot be used (another controller
+/// holds it, or it is not a tables file of this build), or its I/O failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BoardError {
+    /// The tables file cannot be used, in words.
+    #[error("{0}")]
+    Usage(String),
+    /// The tables file's I/O failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The tables file.
+        path: PathBuf,
+        /// What failed.
+        source: std::io::Error,
+    },
+}
+
+/// The board's result.
+pub type Result<T> = std::result::Result<T, BoardError>;
+
+/// An I/O error on `path` as a [`BoardError`].
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BoardError + '_ {
+    move |source| BoardError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
 
 /// Bytes of a program unit of the host's flash.
 const WRITE: usize = 8;
@@ -150,7 +178,7 @@ pub fn file_store(path: &Path) -> Result<BoardStore> {
     match file.try_lock() {
         Ok(()) => {}
         Err(std::fs::TryLockError::WouldBlock) => {
-            return Err(LabError::Usage(format!(
+            return Err(BoardError::Usage(format!(
                 "tables file {}: another controller holds it",
                 path.display()
             )))
@@ -169,7 +197,7 @@ pub fn file_store(path: &Path) -> Result<BoardStore> {
         file.read_to_end(&mut mem).map_err(io(path))?;
         mem
     } else {
-        return Err(LabError::Usage(format!(
+        return Err(BoardError::Usage(format!(
             "tables file {}: {found} bytes, not a tables file of this build ({len} bytes)",
             path.display()
         )));
@@ -258,10 +286,10 @@ pub fn node(
 pub fn save_now<C: trn_controller::Control + ?Sized>(
     node: &mut ControllerNode,
     ctrl: &mut C,
-    clock: &dyn trn_transport::Clock,
+    clock: &dyn crate::Clock,
 ) -> std::result::Result<(), String> {
     use trn_protocol::{Envelope, Message, NodeId, StoreCommand, StoreOp, TablesEvent};
-    let now = || trn_transport::clock::millis(clock.now());
+    let now = || crate::clock::millis(clock.now());
     let save = StoreCommand {
         op: StoreOp::Save,
         nonce: 0,
@@ -279,7 +307,7 @@ pub fn save_now<C: trn_controller::Control + ?Sized>(
             match e.msg {
                 Message::TablesStatus(s) if s.event == TablesEvent::Saved => return Ok(()),
                 Message::ErrorReport(r) if r.code == trn_node::codes::TABLES_FAILED => {
-                    return Err(crate::tables::tables_failure(r.detail))
+                    return Err(tables_failure(r.detail))
                 }
                 _ => {}
             }
@@ -288,6 +316,49 @@ pub fn save_now<C: trn_controller::Control + ?Sized>(
         node.poll(ctrl, now(), &mut out);
     }
     Err("the save did not end".into())
+}
+
+/// A `TABLES_FAILED` detail in words.
+pub fn tables_failure(detail: u32) -> String {
+    let op = match (detail >> 8) & 0xFF {
+        table_op::READ => "reading a chunk",
+        table_op::WRITE_BEGIN => "beginning a write",
+        table_op::WRITE_CHUNK => "writing a chunk",
+        table_op::APPLY => "applying the image written in",
+        table_op::SAVE => "saving",
+        table_op::ERASE => "erasing",
+        _ => "an operation on its tables",
+    };
+    let extra = detail >> 16;
+    let why = match detail & 0xFF {
+        table_reason::NO_TABLES => "it holds no TRN tables".to_string(),
+        table_reason::NO_STORE => "it has no store for its tables".to_string(),
+        table_reason::BUSY => "it is busy (not Idle, or a trial runs)".to_string(),
+        table_reason::OUT_OF_RANGE => "out of range".to_string(),
+        table_reason::NOT_STARTED => "no write in progress".to_string(),
+        table_reason::INCOMPLETE => "not every chunk came".to_string(),
+        table_reason::CRC_MISMATCH => "the image's CRC is not the one announced".to_string(),
+        table_reason::FINGERPRINT_MISMATCH => {
+            "the image's configuration is not the one announced".to_string()
+        }
+        table_reason::IMAGE => format!(
+            "it refused the image ({})",
+            match extra {
+                0 => "length",
+                1 => "magic",
+                2 => "format version",
+                3 => "network shapes",
+                4 => "CRC",
+                5 => "contents: learning steps or values beyond what it holds",
+                6 => "changed while read",
+                _ => "another reason",
+            }
+        ),
+        table_reason::FLASH => format!("its flash failed (code {extra})"),
+        table_reason::CHANGED => "the tables changed during the save".to_string(),
+        r => format!("reason {r}"),
+    };
+    format!("{op} failed: {why}")
 }
 
 #[cfg(test)]
@@ -327,7 +398,9 @@ mod tests {
         let copy = {
             let (mut b, restored) = boot(cfg, Some(&path)).unwrap();
             assert_eq!(restored, Err(RestoreError::NothingStored));
-            assert!(matches!(file_store(&path), Err(LabError::Usage(m)) if m.contains("holds it")));
+            assert!(
+                matches!(file_store(&path), Err(BoardError::Usage(m)) if m.contains("holds it"))
+            );
             b.ctrl = learned();
             save(&mut b)
         };
