@@ -75,21 +75,6 @@ const STAGE2_JOINTS: [u8; 3] = [0, 1, 2];
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Conformance;
 
-impl trn_bench::suite::Suite for Conformance {
-    fn run<P>(
-        &self,
-        runner: &mut Runner<P>,
-        session: SessionConfig,
-        patience: Patience,
-        spoken: Spoken,
-    ) -> Result<Vec<Check>>
-    where
-        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
-    {
-        run(runner, session, patience, spoken)
-    }
-}
-
 /// A run of `spec` (any command) with the suite at hand for [`trn_bench::Command::Conformance`].
 pub fn run_spec(
     spec: &trn_bench::RunSpec,
@@ -103,47 +88,50 @@ pub fn run_quietly(spec: &trn_bench::RunSpec) -> Result<trn_bench::Report> {
     run_spec(spec, &mut trn_bench::Unobserved)
 }
 
-/// Runs the suite; `session` is the configuration it sends first.
-pub fn run<P>(
-    runner: &mut Runner<P>,
-    session: SessionConfig,
-    patience: Patience,
-    spoken: Spoken,
-) -> Result<Vec<Check>>
-where
-    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
-{
-    runner.rig_mut().start_journal();
-    let mut s = Suite {
-        runner,
-        rng: Xoshiro256PlusPlus::seed_from_u64(session.seed ^ 0xC0F0_12AA),
-        patience,
-        checks: Vec::new(),
-        trial: 1000,
-        all: Vec::new(),
-        status: None,
-        v3: spoken == Spoken::V3,
-    };
-    s.store_status()?;
-    s.unsupported_law(session)?;
-    s.session(session)?;
-    s.priming()?;
-    s.training()?;
-    s.abort()?;
-    s.mature(session)?;
-    s.chunk_zero()?;
-    s.save()?;
-    s.erase_without_nonce()?;
-    let idle = s.runner.mode(Mode::Idle);
-    s.verdict(
-        "ModeChange{Idle} is acknowledged (echo to Broadcast)",
-        idle.err().map(|e| e.to_string()).into_iter().collect(),
-    );
-    s.after_idle(session)?;
-    s.writes(session)?;
-    let problems = heartbeat_problems(&s.all);
-    s.verdict("heartbeats: Operational, counter +1 each", problems);
-    Ok(s.checks)
+impl trn_bench::suite::Suite for Conformance {
+    /// Runs the suite; `session` is the configuration it sends first.
+    fn run<P>(
+        &self,
+        runner: &mut Runner<P>,
+        session: SessionConfig,
+        patience: Patience,
+        spoken: Spoken,
+    ) -> Result<Vec<Check>>
+    where
+        P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+    {
+        runner.rig_mut().start_journal();
+        let mut s = Suite {
+            runner,
+            rng: Xoshiro256PlusPlus::seed_from_u64(session.seed ^ 0xC0F0_12AA),
+            patience,
+            checks: Vec::new(),
+            trial: 1000,
+            all: Vec::new(),
+            status: None,
+            v3: spoken == Spoken::V3,
+        };
+        s.store_status()?;
+        s.unsupported_law(session)?;
+        s.session(session)?;
+        s.priming()?;
+        s.training()?;
+        s.abort()?;
+        s.mature(session)?;
+        s.chunk_zero()?;
+        s.save()?;
+        s.erase_without_nonce()?;
+        let idle = s.runner.mode(Mode::Idle);
+        s.verdict(
+            "ModeChange{Idle} is acknowledged (echo to Broadcast)",
+            idle.err().map(|e| e.to_string()).into_iter().collect(),
+        );
+        s.after_idle(session)?;
+        s.writes(session)?;
+        let problems = heartbeat_problems(&s.all);
+        s.verdict("heartbeats: Operational, counter +1 each", problems);
+        Ok(s.checks)
+    }
 }
 
 impl<P> Suite<'_, P>

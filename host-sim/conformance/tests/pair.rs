@@ -8,7 +8,7 @@ use embedded_can::blocking::Can;
 use trn_bench::ports::ControllerPort;
 use trn_bench::rig::Rig;
 use trn_bench::runner::{Runner, Timing};
-use trn_bench::suite::Patience;
+use trn_bench::suite::{Patience, Suite};
 use trn_plant::{Plant, SimConfig};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{BusMode, CanFrame, Encoder, Envelope, Heartbeat, NodeId, NodeState};
@@ -86,8 +86,9 @@ fn conformance_against_heartbeats_only_ends_after_one_patience() {
     let session = trn_bench::RunSpec::new(trn_bench::Command::Conformance, 1).session_config(false);
     // a controller that beats and never answers the status request speaks version 3 (SPEC.md
     // "Versions"): the suite's v3 profile
-    let e =
-        trn_conformance::run(&mut r, session, patience, trn_bench::tables::Spoken::V3).unwrap_err();
+    let e = trn_conformance::Conformance
+        .run(&mut r, session, patience, trn_bench::tables::Spoken::V3)
+        .unwrap_err();
     let msg = e.to_string();
     assert!(msg.contains("only heartbeats"), "{msg}");
     // one check's patience (the first of the v3 profile, the session configuration)
