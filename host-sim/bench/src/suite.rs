@@ -67,22 +67,3 @@ impl Suite for NoSuite {
         Err(no_suite())
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use crate::observe::Unobserved;
-    use crate::spec::{Command, RunSpec};
-    use crate::LabError;
-
-    /// The engine alone refuses the conformance command before it opens a bus, naming the
-    /// crate that runs it; fails if it ran a session without a suite.
-    #[test]
-    fn the_engine_alone_refuses_the_conformance_command() {
-        let spec = RunSpec::new(Command::Conformance, 1);
-        let e = crate::run::run(&spec, &mut Unobserved).unwrap_err();
-        assert!(
-            matches!(&e, LabError::Usage(m) if m.contains("trn_conformance")),
-            "{e}"
-        );
-    }
-}
