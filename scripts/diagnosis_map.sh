@@ -2,12 +2,12 @@
 # The map's error (docs/diagnosis.md, "The map and its Jacobians"): trains the project preset
 # on a copy of the ideal plant without hysteresis (seeds 100-102, 300 trials), then measures
 # each network's coarse move and first fine move on the same plant at rest
-# (host-sim/lab/examples/map_error.rs). Prints the table (docs/results/diagnosis-map.md).
+# (host-sim/bench/examples/map_error.rs). Prints the table (docs/results/diagnosis-map.md).
 # About a minute of one core.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet -p trn-sim --bins
-cargo build --release --quiet -p trn-lab --example map_error
+cargo build --release --quiet -p trn-bench --example map_error
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 plant="$tmp/no-hysteresis.toml"

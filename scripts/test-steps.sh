@@ -7,6 +7,9 @@ main_job() {
 }
 
 step main-job main_job
+# No crate's files import each other in a circle (each file a module; a parent and its own
+# children excepted): the layering docs/ARCHITECTURE.md describes, kept.
+step import-circles python3 scripts/import_circles.py --self-test .
 # The headline figures (docs/results.md): 3 seeds, each within mean +- 4 sd of the recorded 10 seeds.
 step results-bands bash scripts/results.sh --check
 # The docs' generated sections hold the result files of docs/results/ (a second, no build).

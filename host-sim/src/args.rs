@@ -1,15 +1,15 @@
 //! The command line's options as the lab's specifications: built once here, checked by the
 //! lab ([`RunSpec::check`]) before anything runs.
 
-use trn_lab::compare::CompareSpec;
-use trn_lab::lifelong::LifelongSpec;
-use trn_lab::schedule::Plan;
-use trn_lab::sweep::SweepSpec;
-use trn_lab::{BusChoice, Command, LabError, Outputs, Profile, RunSpec};
+use trn_bench::schedule::Plan;
+use trn_bench::{BusChoice, Command, LabError, Outputs, Profile, RunSpec};
+use trn_studies::compare::CompareSpec;
+use trn_studies::lifelong::LifelongSpec;
+use trn_studies::sweep::SweepSpec;
 use trn_transport::BusSpec;
 
-use trn_lab::study::file::{Overrides, StudyFile};
-use trn_lab::study::{self, Study};
+use trn_studies::study::file::{Overrides, StudyFile};
+use trn_studies::study::{self, Study};
 
 use crate::cli::{
     Common, CompareArgs, EvalArgs, LifelongArgs, StudyArgs, StudyOpts, StudyOverrides, SweepArgs,

@@ -71,7 +71,7 @@ pub struct StudyOpts {
     /// Run only shard I of N (0 <= I < N: the runs whose index is I modulo N) and write
     /// their files; `trn merge` makes the table of every shard's files.
     #[arg(long, value_parser = shard)]
-    pub shard: Option<trn_lab::study::Shard>,
+    pub shard: Option<trn_studies::study::Shard>,
     /// The run folder: one JSON file per finished run (default: OUT/runs).
     #[arg(long)]
     pub runs: Option<PathBuf>,
@@ -80,7 +80,7 @@ pub struct StudyOpts {
     pub quiet: bool,
 }
 
-fn shard(s: &str) -> Result<trn_lab::study::Shard, String> {
+fn shard(s: &str) -> Result<trn_studies::study::Shard, String> {
     s.parse()
 }
 
@@ -98,10 +98,10 @@ pub struct StudyOverrides {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub trials: Option<u64>,
     /// Held-out targets per network in the evaluation (default: the study's).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub eval_targets: Option<u64>,
     /// Grasps in the evaluation (default: the study's).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub grasps: Option<u64>,
 }
 
@@ -279,10 +279,10 @@ pub struct Common {
     #[arg(long = "controller", value_enum, default_value_t = Law::Trn)]
     pub law: Law,
     /// Held-out targets per network in the evaluation.
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub eval_targets: u64,
     /// Grasps in the evaluation.
-    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub grasps: u64,
     /// Fine moves after the coarse move in the held-out evaluation with the fixed move
     /// budget (never stopping early; at most 31).
@@ -290,10 +290,10 @@ pub struct Common {
     pub fine_moves: u8,
     /// A frozen snapshot evaluation (held-out targets, fixed budget, no learning) every this
     /// many training trials (0: none).
-    #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub snapshot_every: u64,
     /// Held-out targets per network in each snapshot (the first of the held-out set).
-    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_lab::spec::MAX_COUNT as u64))]
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub snapshot_targets: u64,
     /// Write the JSON report here (.json).
     #[arg(long)]

@@ -12,7 +12,7 @@ use crate::{CliError, Result};
 
 /// Decodes `log` and prints every frame to `out` (only the counts when `summary_only`).
 pub fn decode(log: &Path, summary_only: bool, out: &mut impl Write) -> Result<Summary> {
-    let io = |e: std::io::Error| CliError::Lab(trn_lab::io(log)(e));
+    let io = |e: std::io::Error| CliError::Lab(trn_bench::io(log)(e));
     let file = std::fs::File::open(log).map_err(io)?;
     let mut dec = LogDecoder::new();
     let mut bad_lines = 0usize;

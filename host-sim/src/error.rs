@@ -2,7 +2,7 @@
 //! contradict each other, a meaningless count, an output that collides with an input) exits
 //! with 2, like clap's own; every other error with 1.
 
-use trn_lab::LabError;
+use trn_bench::LabError;
 
 /// What can end a command.
 #[derive(Debug, thiserror::Error)]

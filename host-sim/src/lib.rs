@@ -6,7 +6,7 @@
 //! [`picture`]).
 //!
 //! The layers below, each usable alone: `trn-plant` (the simulated arm and its CAN nodes),
-//! `trn-transport` (the buses and where the controller runs), `trn-lab` (runs, studies,
+//! `trn-transport` (the buses and where the controller runs), `trn-bench` (runs, studies,
 //! reports).
 
 pub mod args;

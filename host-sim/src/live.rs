@@ -3,7 +3,7 @@
 //! that sends each event, one JSON object a line, to `python -m trn_softarm.live` (the
 //! Python package's live view, on the rerun Python SDK: `pip install './python[live]'`;
 //! the interpreter is `$TRN_PYTHON`, else `python3`). The recording is written as every
-//! output is (`trn_lab::output`): checked before the run, into a temporary file that
+//! output is (`trn_bench::output`): checked before the run, into a temporary file that
 //! becomes FILE when the viewer's process ended well.
 
 use std::io::{BufWriter, Write};
@@ -11,9 +11,9 @@ use std::path::Path;
 use std::process::{Child, ChildStdin, Command, Stdio};
 
 use serde_json::{json, Value};
-use trn_lab::output::{check_path, Kind, PendingFile};
-use trn_lab::records::{Phase, TrialRecord};
-use trn_lab::{metrics, scoring, LabError, Observer};
+use trn_bench::output::{check_path, Kind, PendingFile};
+use trn_bench::records::{Phase, TrialRecord};
+use trn_bench::{metrics, scoring, LabError, Observer};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::nodes::Sight;
 use trn_plant::{Readings, SimConfig};
@@ -171,20 +171,24 @@ impl LiveStream {
                         pixels(noisy),
                         t.v.to_vec(),
                         (
-                            noisy.to_vector().map(|v| trn_lab::targets::dist(&v, &t.v)),
+                            noisy
+                                .to_vector()
+                                .map(|v| trn_bench::targets::dist(&v, &t.v)),
                             truth
                                 .to_vector()
-                                .map(|v| trn_lab::targets::dist(&v, &t.v_true)),
+                                .map(|v| trn_bench::targets::dist(&v, &t.v_true)),
                         ),
                     ),
                     Sight::Centre { noisy, truth } => (
                         pixels(noisy),
                         t.c.to_vec(),
                         (
-                            noisy.to_vector().map(|v| trn_lab::targets::dist(&v, &t.c)),
+                            noisy
+                                .to_vector()
+                                .map(|v| trn_bench::targets::dist(&v, &t.c)),
                             truth
                                 .to_vector()
-                                .map(|v| trn_lab::targets::dist(&v, &t.c_true)),
+                                .map(|v| trn_bench::targets::dist(&v, &t.c_true)),
                         ),
                     ),
                 };

@@ -9,7 +9,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
-use trn_lab::report::{smooth, Report};
+use trn_bench::report::{smooth, Report};
 
 /// A plot's result: what went wrong, for the caller to name the file.
 pub type Result<T> = std::result::Result<T, String>;
@@ -231,7 +231,7 @@ fn snapshots<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     caption: &str,
     report: &Report,
-    pick: impl Fn(&trn_lab::report::SnapshotPoint) -> &Vec<f32>,
+    pick: impl Fn(&trn_bench::report::SnapshotPoint) -> &Vec<f32>,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -331,7 +331,7 @@ where
 /// Error over the floor and grasp success against trials, one line per controller, each
 /// with its own marker and set a little apart along the trials (lines that coincide, as the
 /// grasp rates at 100 % do, stay told apart), one legend beside both panels.
-pub fn lifelong(curves: &[trn_lab::lifelong::Curve], path: &std::path::Path) -> Result<()> {
+pub fn lifelong(curves: &[trn_studies::lifelong::Curve], path: &std::path::Path) -> Result<()> {
     fonts();
     let err = |e: &dyn std::error::Error| format!("cannot draw: {}", plain_error(e));
     let draw = || -> DrawResult {

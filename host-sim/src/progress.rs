@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use std::io::IsTerminal;
-use trn_lab::Observer;
+use trn_bench::Observer;
 
 /// The signals that ask a run to stop, as flags.
 #[derive(Debug, Clone, Default)]
@@ -84,7 +84,7 @@ impl Observer for Progress {
         self.bar.set_prefix(name.to_string());
     }
 
-    fn trial(&mut self, _record: &trn_lab::records::TrialRecord) {
+    fn trial(&mut self, _record: &trn_bench::records::TrialRecord) {
         self.bar.inc(1);
     }
 

@@ -11,8 +11,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use trn_lab::study::{self, Finished, Job, Options, RunFile, Study, Watch};
-use trn_lab::{LabError, Observer};
+use trn_bench::{LabError, Observer};
+use trn_studies::study::{self, Finished, Job, Options, RunFile, Study, Watch};
 
 use crate::progress::Interrupts;
 use crate::Result;
@@ -178,7 +178,7 @@ struct RunProgress<'a> {
 }
 
 impl Observer for RunProgress<'_> {
-    fn trial(&mut self, _record: &trn_lab::records::TrialRecord) {
+    fn trial(&mut self, _record: &trn_bench::records::TrialRecord) {
         let s = self.study;
         s.done_trials.fetch_add(1, Ordering::Relaxed);
         s.bar.inc(1);
@@ -233,15 +233,15 @@ pub fn run(
 /// `trn merge`: the study's table and JSON from its run files.
 pub fn merge(paths: &[PathBuf], json: Option<&Path>) -> Result<Finished> {
     if let Some(p) = json {
-        trn_lab::output::check_path(p, trn_lab::output::Kind::Json)?;
+        trn_bench::output::check_path(p, trn_bench::output::Kind::Json)?;
     }
-    let files = trn_lab::study::runfile::expand(paths)?
+    let files = trn_studies::study::runfile::expand(paths)?
         .iter()
         .map(|p| RunFile::read(p))
         .collect::<std::result::Result<Vec<_>, _>>()?;
     let finished = study::finish(files)?;
     if let Some(p) = json {
-        trn_lab::output::write_json(p, &trn_lab::provenance::Stamped::new(&finished.json))?;
+        trn_bench::output::write_json(p, &trn_bench::provenance::Stamped::new(&finished.json))?;
     }
     print!("{}", finished.table);
     Ok(finished)

@@ -2,9 +2,9 @@
 //! move budget first (what measures the networks), then the controller's stop rule, the
 //! training curve (which depends on the tolerance schedule tol(t)), grasps and failures.
 
-use trn_lab::format::{protocol_line, px};
-use trn_lab::report::{mean, trials_to_reach, Report};
-use trn_lab::{LabError as Error, Result};
+use trn_bench::format::{protocol_line, px};
+use trn_bench::report::{mean, trials_to_reach, Report};
+use trn_bench::{LabError as Error, Result};
 
 /// Mean of the last `n` entries.
 fn tail(x: &[f32], n: usize) -> f32 {
@@ -277,7 +277,7 @@ pub fn check_failures(r: &Report) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trn_lab::report::FailedTrial;
+    use trn_bench::report::FailedTrial;
 
     #[test]
     fn more_than_a_tenth_of_failed_evaluation_trials_is_an_error() {

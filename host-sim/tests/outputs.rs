@@ -1,4 +1,4 @@
-//! Every file `trn` writes follows one rule (trn_lab::output): checked before the run, never
+//! Every file `trn` writes follows one rule (trn_bench::output): checked before the run, never
 //! an input or another output, never a device or a symlink, written whole or not at all,
 //! errors naming the user's path; counts bounded; a full disk loses nothing.
 

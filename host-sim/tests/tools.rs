@@ -32,10 +32,6 @@ fn each_binarys_help_says_what_that_binary_does() {
     for (bin, says) in [
         (env!("CARGO_BIN_EXE_trn"), "train, evaluate and compare"),
         (
-            env!("CARGO_BIN_EXE_controller-node"),
-            "the controller as a CAN node in its own process",
-        ),
-        (
             env!("CARGO_BIN_EXE_sim-pictures"),
             "pictures of the simulated plant",
         ),

@@ -34,7 +34,7 @@ echo "vcan: building static executables"
 export CARGO_TARGET_DIR="$root/target/static"
 export RUSTFLAGS='-C target-feature=+crt-static'
 triple=x86_64-unknown-linux-gnu
-cargo build --quiet --release --target $triple -p trn-sim --no-default-features --bin trn --bin controller-node
+cargo build --quiet --release --target $triple -p trn-sim -p trn-transport --no-default-features --bin trn --bin controller-node
 bin="$CARGO_TARGET_DIR/$triple/release"
 vcan_test=$(cargo test --quiet --release --target $triple -p trn-protocol --features socketcan --test vcan \
     --no-run --message-format=json 2>/dev/null \

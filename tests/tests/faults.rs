@@ -8,8 +8,8 @@
 use std::sync::mpsc;
 use std::time::Duration;
 
-use trn_lab::schedule::Plan;
-use trn_lab::{run, Command, Report, RunSpec};
+use trn_bench::schedule::Plan;
+use trn_bench::{run, Command, Report, RunSpec};
 use trn_protocol::bus::FaultConfig;
 
 const PLAN: Plan = Plan {
@@ -25,7 +25,7 @@ fn spec(seed: u64, plan: Plan, fd: bool, faults: Option<&str>) -> RunSpec {
     spec
 }
 
-fn run(fd: bool, faults: Option<&str>) -> trn_lab::Result<Report> {
+fn run(fd: bool, faults: Option<&str>) -> trn_bench::Result<Report> {
     run::run_quietly(&spec(100, PLAN, fd, faults))
 }
 

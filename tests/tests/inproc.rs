@@ -2,13 +2,13 @@
 //! on one bus on a simulated clock, every message through CAN frames.
 
 use std::rc::Rc;
-use trn_lab::schedule::Plan;
-use trn_lab::{run, Command, RunSpec};
+use trn_bench::schedule::Plan;
+use trn_bench::{run, Command, RunSpec};
 use trn_transport::WallClock;
 
 const PLAN: Plan = Plan::new(60, 5, 3);
 
-fn run_plan(seed: u64, fd: bool, plan: Plan) -> trn_lab::Report {
+fn run_plan(seed: u64, fd: bool, plan: Plan) -> trn_bench::Report {
     let mut spec = RunSpec::new(Command::Train, seed);
     spec.bus.fd = fd;
     spec.plan = plan;
@@ -73,10 +73,10 @@ fn training_learns_and_grasps_are_scored() {
 #[test]
 fn a_silent_bus_is_a_typed_error() {
     use std::time::Duration;
-    use trn_lab::records::{Phase, TrialKind};
-    use trn_lab::rig::Rig;
-    use trn_lab::runner::Runner;
-    use trn_lab::LabError as Error;
+    use trn_bench::records::{Phase, TrialKind};
+    use trn_bench::rig::Rig;
+    use trn_bench::runner::Runner;
+    use trn_bench::LabError as Error;
     use trn_plant::{Plant, SimConfig};
     use trn_protocol::bus::InProcBus;
     use trn_protocol::BusMode;
@@ -91,7 +91,7 @@ fn a_silent_bus_is_a_typed_error() {
         Default::default(),
     );
     let timing =
-        trn_lab::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(200));
+        trn_bench::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(200));
     let mut s = Runner::new(rig, 1, timing);
     let _other = bus.port();
     let e = s
@@ -105,10 +105,10 @@ fn a_silent_bus_is_a_typed_error() {
 fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
     use embedded_can::blocking::Can;
     use std::time::Duration;
-    use trn_lab::records::{Phase, TrialKind};
-    use trn_lab::rig::Rig;
-    use trn_lab::runner::Runner;
-    use trn_lab::LabError as Error;
+    use trn_bench::records::{Phase, TrialKind};
+    use trn_bench::rig::Rig;
+    use trn_bench::runner::Runner;
+    use trn_bench::LabError as Error;
     use trn_plant::{Plant, SimConfig};
     use trn_protocol::bus::{InProcBus, ReceiveTimeout};
     use trn_protocol::{
@@ -125,7 +125,7 @@ fn servo_drives_that_lose_the_heartbeat_enter_the_safe_state_and_say_so() {
         Default::default(),
     );
     let timing =
-        trn_lab::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(1500));
+        trn_bench::runner::Timing::new(Duration::from_millis(50), Duration::from_millis(1500));
     let mut s = Runner::new(rig, 1, timing);
     // a controller that sends one heartbeat, then dies
     let mut ctrl = bus.port();

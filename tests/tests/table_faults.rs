@@ -6,8 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
-use trn_lab::schedule::Plan;
-use trn_lab::{run, Command, RunSpec};
+use trn_bench::schedule::Plan;
+use trn_bench::{run, Command, RunSpec};
 use trn_protocol::bus::FaultConfig;
 
 fn dir() -> PathBuf {

@@ -297,7 +297,7 @@ const TRIAL_SECANT: f32 = 0.3;
 /// arm's local Jacobian differs: on a hysteresis-free plant the learned averaged Jacobian's
 /// step left a residual across the error of about a quarter of it, against a first fine move
 /// of the true Jacobian that leaves 0.15 of the error (`docs/diagnosis.md`, the map's
-/// error). Measured against sigma 5 with time constant 100 (`host-sim/lab/examples/tune.rs`
+/// error). Measured against sigma 5 with time constant 100 (`host-sim/bench/examples/tune.rs`
 /// with `SIG=5 SIGT=100` against the defaults, tuning seeds 1-8, realistic plant, 300
 /// trials, held-out deployment targets): combined noise-free error after the coarse move
 /// 31.6 against 34.0 px, after 2 fine moves 4.02 against 4.59 px, after the budget of 6

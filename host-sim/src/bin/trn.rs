@@ -4,13 +4,15 @@
 
 use clap::Parser;
 use std::process::ExitCode;
-use trn_lab::{lifelong, run, Command, RunSpec};
+use trn_bench::{run, Command, RunSpec};
+use trn_conformance::Conformance;
 use trn_sim::cli::{Cli, Cmd, Common};
 use trn_sim::live::{Both, LiveStream};
 use trn_sim::progress::{Interrupts, Progress};
 use trn_sim::studies;
 use trn_sim::summary;
 use trn_sim::{CliError, Result};
+use trn_studies::lifelong;
 
 /// Runs one specification with the progress bar and the interrupts (and the live view,
 /// `--rerun`/`--rerun-save`); draws its plot.
@@ -23,11 +25,11 @@ fn run_one(
     let mut progress = Progress::new(spec.command == Command::Conformance, interrupts.clone());
     let report = if common.rerun || common.rerun_save.is_some() {
         let mut live = LiveStream::start(&spec.plant, common.rerun, common.rerun_save.as_deref())?;
-        let report = run::run(&spec, &mut Both(&mut progress, &mut live));
+        let report = run::run_with(&spec, &mut Both(&mut progress, &mut live), &Conformance);
         live.close()?;
         report?
     } else {
-        run::run(&spec, &mut progress)?
+        run::run_with(&spec, &mut progress, &Conformance)?
     };
     if let Some(p) = &spec.outputs.plot {
         plot(&report, p)?;
@@ -43,8 +45,8 @@ fn run_one(
 /// Draws the learning curves into a temporary file beside `path` that becomes `path` only
 /// when whole (the output rule of every file).
 #[cfg(feature = "plot")]
-fn plot(report: &trn_lab::Report, path: &std::path::Path) -> Result<()> {
-    let pending = trn_lab::output::PendingFile::create(path)?;
+fn plot(report: &trn_bench::Report, path: &std::path::Path) -> Result<()> {
+    let pending = trn_bench::output::PendingFile::create(path)?;
     trn_sim::plot::learning_curves(report, pending.temporary_path())
         .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
     pending.commit()?;
@@ -52,7 +54,7 @@ fn plot(report: &trn_lab::Report, path: &std::path::Path) -> Result<()> {
 }
 
 #[cfg(not(feature = "plot"))]
-fn plot(_: &trn_lab::Report, _: &std::path::Path) -> Result<()> {
+fn plot(_: &trn_bench::Report, _: &std::path::Path) -> Result<()> {
     Err(CliError::NoPlot)
 }
 
@@ -92,7 +94,7 @@ fn main() -> ExitCode {
         }),
         Cmd::Sweep(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
             std::fs::create_dir_all(&a.out).map_err(|source| {
-                CliError::from(trn_lab::LabError::Io {
+                CliError::from(trn_bench::LabError::Io {
                     path: a.out.clone(),
                     source,
                 })
@@ -138,7 +140,7 @@ fn lifelong_run(
 ) -> Result<()> {
     let study = spec.study()?;
     std::fs::create_dir_all(&spec.out).map_err(|source| {
-        CliError::from(trn_lab::LabError::Io {
+        CliError::from(trn_bench::LabError::Io {
             path: spec.out.clone(),
             source,
         })
@@ -161,8 +163,8 @@ fn lifelong_run(
 
 /// The life-long plot of a study's runs, written whole or not at all.
 #[cfg(feature = "plot")]
-fn lifelong_plot(files: &[trn_lab::study::RunFile], path: &std::path::Path) -> Result<()> {
-    let pending = trn_lab::output::PendingFile::create(path)?;
+fn lifelong_plot(files: &[trn_studies::study::RunFile], path: &std::path::Path) -> Result<()> {
+    let pending = trn_bench::output::PendingFile::create(path)?;
     trn_sim::plot::lifelong(&lifelong::curves(files), pending.temporary_path())
         .map_err(|e| CliError::Plot(format!("{}: {e}", path.display())))?;
     pending.commit()?;
@@ -170,6 +172,6 @@ fn lifelong_plot(files: &[trn_lab::study::RunFile], path: &std::path::Path) -> R
 }
 
 #[cfg(not(feature = "plot"))]
-fn lifelong_plot(_: &[trn_lab::study::RunFile], _: &std::path::Path) -> Result<()> {
+fn lifelong_plot(_: &[trn_studies::study::RunFile], _: &std::path::Path) -> Result<()> {
     Err(CliError::NoPlot)
 }

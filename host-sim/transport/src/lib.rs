@@ -10,6 +10,7 @@
 //! [`BusProfile`] says what each one can do (timing, faults, a tables file, host-only laws);
 //! [`Clock`] is the time the runner, the rig and the node read.
 
+pub mod board;
 pub mod clock;
 pub mod controller_loop;
 mod error;

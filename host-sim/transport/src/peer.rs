@@ -23,7 +23,7 @@ pub fn controller_node_exe() -> Result<PathBuf, String> {
         (true, _) => Ok(beside),
         (false, Some(up)) if up.exists() => Ok(up),
         _ => Err(format!(
-            "{} not found: build it with `cargo build --release -p trn-sim --bins` or set TRN_CONTROLLER_NODE",
+            "{} not found: build it with `cargo build --release -p trn-transport --bin controller-node` or set TRN_CONTROLLER_NODE",
             beside.display()
         )),
     }

@@ -1,0 +1,432 @@
+//! Studies of many runs: the same results with any number of workers and from shards
+//! merged; an interrupted study resumed without redoing its finished runs (and redoing a
+//! corrupt or foreign file); study files that name what is wrong in them.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use serde_json::Value;
+use trn_studies::study::file::{Overrides, StudyFile};
+use trn_studies::study::{self, runfile, Job, Options, RunFile, Shard, Study, Watch};
+
+/// 2 rows x 2 hysteresis widths x 2 seeds of tiny runs (6 training trials, 3 held-out
+/// targets, 2 grasps): 8 runs of a fraction of a second each.
+const TINY: &str = r#"
+name = "tiny"
+seeds = { first = 100, count = 2 }
+[base]
+plant = "ideal"
+trials = 6
+eval_targets = 3
+grasps = 2
+snapshot_every = 3
+snapshot_targets = 2
+[[row]]
+key = "project"
+[[row]]
+key = "broyden"
+name = "Broyden"
+law = "broyden"
+trials = 0
+[[axis]]
+key = "joints.*.hysteresis_width"
+name = "width"
+values = [0.05, 0.2]
+"#;
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("trn-studies-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn tiny(dir: &Path) -> Study {
+    StudyFile::parse(TINY, "tiny")
+        .unwrap()
+        .study(
+            Path::new("."),
+            &Overrides::default(),
+            Some(&dir.join("plants")),
+        )
+        .unwrap()
+}
+
+fn opts(runs: &Path, jobs: usize) -> Options {
+    Options {
+        jobs,
+        runs: runs.to_path_buf(),
+        resume: false,
+        shard: None,
+    }
+}
+
+/// The JSON with every wall time set to 0 (the only field that differs run to run).
+fn without_wall(mut v: Value) -> Value {
+    fn walk(v: &mut Value) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m.iter_mut() {
+                    if k == "wall_s" {
+                        *x = Value::from(0.0);
+                    } else {
+                        walk(x);
+                    }
+                }
+            }
+            Value::Array(a) => a.iter_mut().for_each(walk),
+            _ => {}
+        }
+    }
+    walk(&mut v);
+    v
+}
+
+fn json_of(ran: study::Ran) -> Value {
+    without_wall(ran.finished.expect("the whole study ran").json)
+}
+
+#[test]
+fn the_grid_is_rows_times_axis_values_times_seeds() {
+    let s = tiny(&scratch("grid"));
+    let names: Vec<(&str, u64)> = s
+        .jobs
+        .iter()
+        .map(|j| (j.row.name.as_str(), j.spec.seed))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("project, width 0.05", 100),
+            ("project, width 0.05", 101),
+            ("project, width 0.2", 100),
+            ("project, width 0.2", 101),
+            ("Broyden, width 0.05", 100),
+            ("Broyden, width 0.05", 101),
+            ("Broyden, width 0.2", 100),
+            ("Broyden, width 0.2", 101),
+        ]
+    );
+    let j = &s.jobs[6];
+    assert!(j
+        .spec
+        .plant
+        .joints
+        .iter()
+        .all(|x| x.hysteresis_width == 0.2));
+    assert_eq!(
+        (j.spec.plan.trials, j.spec.profile.law.name()),
+        (0, "broyden")
+    );
+    assert_eq!(s.jobs[0].spec.plan.trials, 6);
+    // a plant made of keys is written, and the runs name its file
+    let file = PathBuf::from(j.spec.plant_name.clone().unwrap());
+    assert_eq!(trn_plant::SimConfig::load(&file).unwrap(), j.spec.plant);
+}
+
+/// `--jobs 2` gives the runs and the table of `--jobs 1`, and so do two shards merged.
+#[test]
+fn parallel_and_sharded_studies_give_the_results_of_one_worker() {
+    let dir = scratch("parallel");
+    let s = tiny(&dir);
+    let one = study::run(&s, &opts(&dir.join("one"), 1), &trn_bench::Unobserved, None).unwrap();
+    let two = study::run(&s, &opts(&dir.join("two"), 2), &trn_bench::Unobserved, None).unwrap();
+    let (one, two) = (json_of(one), json_of(two));
+    assert_eq!(one, two, "2 workers changed the results");
+    for shard in 0..2 {
+        let o = Options {
+            shard: Some(Shard {
+                index: shard,
+                count: 2,
+            }),
+            ..opts(&dir.join(format!("shard{shard}")), 2)
+        };
+        let ran = study::run(&s, &o, &trn_bench::Unobserved, None).unwrap();
+        assert!(ran.finished.is_none(), "a shard makes no table");
+        assert_eq!(ran.ran, 4);
+    }
+    let paths = runfile::expand(&[dir.join("shard1"), dir.join("shard0")]).unwrap();
+    assert_eq!(paths.len(), 8);
+    let files: Vec<RunFile> = paths.iter().map(|p| RunFile::read(p).unwrap()).collect();
+    let merged = study::finish(files.clone()).unwrap();
+    assert_eq!(
+        without_wall(merged.json),
+        one,
+        "the merge of the shards is not the study"
+    );
+    // the table names the rows and gives the worst seed beside each mean
+    assert!(
+        merged.table.contains("| project, width 0.2 | 6 |"),
+        "{}",
+        merged.table
+    );
+    assert!(merged.table.contains(") |"), "{}", merged.table);
+    // a shard missing is named; files of another study are refused
+    let err = study::finish(files[..7].to_vec()).unwrap_err().to_string();
+    assert!(err.contains("1 of its 8 runs have no file"), "{err}");
+    let mut foreign = files.clone();
+    foreign[0].study.digest = "0".repeat(16);
+    let err = study::finish(foreign).unwrap_err().to_string();
+    assert!(err.contains("two studies"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Stops the study after `after` runs finished; counts what it saw.
+struct StopAfter {
+    after: usize,
+    finished: AtomicUsize,
+    notes: std::sync::Mutex<Vec<String>>,
+}
+
+impl StopAfter {
+    fn new(after: usize) -> StopAfter {
+        StopAfter {
+            after,
+            finished: AtomicUsize::new(0),
+            notes: Default::default(),
+        }
+    }
+}
+
+impl Watch for StopAfter {
+    fn note(&self, text: &str) {
+        self.notes.lock().unwrap().push(text.to_string());
+    }
+    fn finished(&self, _: &Job, _: &RunFile, _: &Path) {
+        self.finished.fetch_add(1, Ordering::SeqCst);
+    }
+    fn stop_requested(&self) -> bool {
+        self.finished.load(Ordering::SeqCst) >= self.after
+    }
+}
+
+/// A study interrupted after 4 of its 8 runs keeps them; resumed, it runs only what is
+/// missing, redoes a file cut short and a file holding another specification, and makes
+/// the table of a study that was never interrupted.
+#[test]
+fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
+    let dir = scratch("resume");
+    let s = tiny(&dir);
+    let runs = dir.join("runs");
+    let stop = StopAfter::new(4);
+    let first = study::run(&s, &opts(&runs, 1), &stop, None).unwrap();
+    assert!(first.interrupted && first.finished.is_none());
+    assert_eq!(first.ran, 4);
+    let path = |i: usize| runs.join(s.jobs[i].file_name());
+    let written: Vec<usize> = (0..8).filter(|&i| path(i).exists()).collect();
+    assert_eq!(written, [0, 1, 2, 3], "one worker runs in order");
+    let kept = std::fs::read(path(1)).unwrap();
+    // run 0's file cut short (a disk full before the durable writes, a copy gone wrong),
+    // run 2's holding another specification under its name
+    let whole = std::fs::read(path(0)).unwrap();
+    std::fs::write(path(0), &whole[..whole.len() / 2]).unwrap();
+    let mut other: Value = serde_json::from_slice(&std::fs::read(path(2)).unwrap()).unwrap();
+    other["report"]["spec"]["plan"]["grasps"] = Value::from(9);
+    std::fs::write(path(2), serde_json::to_vec(&other).unwrap()).unwrap();
+
+    let watch = StopAfter::new(usize::MAX);
+    let resumed = study::run(
+        &s,
+        &Options {
+            resume: true,
+            ..opts(&runs, 2)
+        },
+        &watch,
+        None,
+    )
+    .unwrap();
+    assert_eq!(
+        (resumed.resumed, resumed.ran),
+        (2, 6),
+        "{:?}",
+        watch.notes.lock().unwrap()
+    );
+    assert_eq!(
+        std::fs::read(path(1)).unwrap(),
+        kept,
+        "a finished run was written again"
+    );
+    let notes = watch.notes.lock().unwrap().join("\n");
+    assert!(
+        notes.contains("unreadable") && notes.contains("another run specification"),
+        "{notes}"
+    );
+
+    let fresh = study::run(
+        &s,
+        &opts(&dir.join("fresh"), 2),
+        &trn_bench::Unobserved,
+        None,
+    )
+    .unwrap();
+    assert_eq!(json_of(resumed), json_of(fresh));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn refused(text: &str, over: &Overrides) -> String {
+    let dir = scratch("refused");
+    match StudyFile::parse(text, "t.toml").and_then(|f| f.study(Path::new("."), over, Some(&dir))) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// A bad key, a value out of its range, a value of the wrong type, an unknown setting or
+/// row: refused before anything runs, naming it.
+#[test]
+fn study_files_name_what_is_wrong_in_them() {
+    let head = "name = \"t\"\nseeds = [100]\n";
+    let row = |body: &str| format!("{head}[[row]]\nname = \"r\"\n{body}\n");
+    let e = refused(
+        &row(r#"set = { "joints.*.hysterisis_width" = 0.1 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("`joints.*.hysterisis_width`") && e.contains("hysteresis_width"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"set = { "realism.load_width_gain" = -1.0 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("load_width_gain") && e.contains("study t, r"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"set = { pixel_noise_px = "low" }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("pixel_noise_px") && e.contains("takes float"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"set = { "joints.7.damping_ratio" = 0.2 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("`joints.7.damping_ratio`") && e.contains("index 0..5"),
+        "{e}"
+    );
+    let e = refused(&row(r#"set = { realism = 0.2 }"#), &Overrides::default());
+    assert!(e.contains("is a table"), "{e}");
+    let e = refused(
+        &row(r#"copy = { from = "nowhere.toml", keys = ["dt_s"] }"#),
+        &Overrides::default(),
+    );
+    assert!(e.contains("nowhere.toml"), "{e}");
+    let e = refused(&row("presett = \"paper\""), &Overrides::default());
+    assert!(e.contains("presett"), "{e}");
+    let e = refused(&row("preset = \"papr\""), &Overrides::default());
+    assert!(e.contains("papr"), "{e}");
+    let e = refused(&row("fine_moves = 40"), &Overrides::default());
+    assert!(e.contains("fine_moves 40"), "{e}");
+    let e = refused(
+        &format!("{head}[[axis]]\nkey = \"law\"\nvalues = [\"trn\", \"magic\"]\n"),
+        &Overrides::default(),
+    );
+    assert!(e.contains("axis law") && e.contains("magic"), "{e}");
+    let only = Overrides {
+        configs: vec!["nope".into()],
+        ..Overrides::default()
+    };
+    let e = refused(&row(""), &only);
+    assert!(e.contains("\"nope\"") && e.contains("--configs"), "{e}");
+}
+
+/// Controller keys: a row's `controller` table and an axis's `controller.` keys set fields of
+/// the controller's configuration (`*` both stages), on top of the profile's; a row without
+/// them runs the profile's configuration through the session; two configurations that
+/// differ only in them never share a run file.
+#[test]
+fn controller_keys_set_the_controller_configuration() {
+    let text = r#"
+name = "keys"
+seeds = [1]
+[base]
+plant = "ideal"
+trials = 3
+[[row]]
+key = "plain"
+[[row]]
+key = "tuned"
+controller = { "*.map_step" = 0.7, "stage1.dv_noise" = 2, "stage2.forward_secant" = true }
+[[axis]]
+key = "controller.stage2.trial_secant"
+values = [0.0, 0.5]
+"#;
+    let dir = scratch("controller-keys");
+    let study = StudyFile::parse(text, "keys.toml")
+        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+        .unwrap();
+    assert_eq!(study.jobs.len(), 4);
+    let profile = study.jobs[0].spec.profile_config();
+    for job in &study.jobs {
+        let got = job
+            .spec
+            .controller_override
+            .expect("every row has the axis's key");
+        let mut want = profile;
+        want.stage2.trial_secant = if job.row.name.contains("0.5") {
+            0.5
+        } else {
+            0.0
+        };
+        if job.row.key.starts_with("tuned") {
+            want.stage1.map_step = 0.7;
+            want.stage2.map_step = 0.7;
+            want.stage1.dv_noise = 2.0;
+            want.stage2.forward_secant = true;
+        }
+        assert_eq!(got, want, "{}", job.row.name);
+    }
+    let names: std::collections::HashSet<String> =
+        study.jobs.iter().map(|j| j.file_name()).collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+    // without controller keys: no override, the profile's configuration over the session
+    let plain = StudyFile::parse(
+        "name = \"p\"\nseeds = [1]\n[[row]]\nkey = \"plain\"\n",
+        "p.toml",
+    )
+    .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+    .unwrap();
+    assert!(plain.jobs[0].spec.controller_override.is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A controller key that is not a field, of the wrong type, or naming a whole table:
+/// refused before anything runs, naming the key.
+#[test]
+fn controller_keys_name_what_is_wrong_in_them() {
+    let row = |body: &str| format!("name = \"t\"\nseeds = [1]\n[[row]]\nname = \"r\"\n{body}\n");
+    let e = refused(
+        &row(r#"controller = { "*.map_stepp" = 0.7 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("unknown controller key `*.map_stepp`") && e.contains("study t, r"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"controller = { "stage1.forward_secant" = 1.0 }"#),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("controller key `stage1.forward_secant` takes boolean"),
+        "{e}"
+    );
+    let e = refused(
+        &row(r#"controller = { "stage1" = 1.0 }"#),
+        &Overrides::default(),
+    );
+    assert!(e.contains("controller key `stage1` is a table"), "{e}");
+    let e = refused(
+        "name = \"t\"\nseeds = [1]\n[[axis]]\nkey = \"controller.stage3.sigma\"\nvalues = [1.0]\n",
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("`stage3.sigma`") && e.contains("stage1, stage2"),
+        "{e}"
+    );
+}
