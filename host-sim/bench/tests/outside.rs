@@ -189,7 +189,7 @@ fn eval(outside: Outside) -> (Result<trn_bench::Report, String>, Vec<SessionConf
 #[test]
 fn the_spec_vector_is_the_project_presets_configuration() {
     // the same number SPEC.md 3.2.1 prints beside the vector
-    assert_eq!(spec_fingerprint(), 0x1212_a99a);
+    assert_eq!(spec_fingerprint(), 0x0b30_9dbb);
     assert_ne!(own_fingerprint(), spec_fingerprint());
 }
 
