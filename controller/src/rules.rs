@@ -179,44 +179,6 @@ pub fn coarse_output<const N: usize, const D: usize, const M: usize, const K: us
     out
 }
 
-/// The coarse output's blend with the smooth map ([`crate::StageConfig::coarse_blend`]):
-/// `(1 - beta) P_bar + beta (P_avg + A_bar (u - w_avg))`, with `P_avg` and `w_avg` the
-/// `alpha`-weighted averages of the neurons' pressures and weights over the coarse move's
-/// ranks and `A_bar` the fine move's averaged Jacobian ([`mean_jacobian`]). `beta = 1`
-/// extrapolates every neuron's map with the average instead of its own `A_k` (8.11 with
-/// `A_k` replaced by `A_bar`), `beta = 1/2` with the mean of the two (second-order blending).
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-pub fn blend_coarse<const N: usize, const D: usize, const M: usize, const K: usize>(
-    net: &Trn<N, D, M>,
-    ranking: &Ranking<K>,
-    alpha: &Falloff<K>,
-    u: &[f32; D],
-    ranks: usize,
-    fine_ranks: usize,
-    p_bar: &[f32; M],
-    beta: f32,
-) -> [f32; M] {
-    let a_bar = mean_jacobian(net, ranking, alpha, fine_ranks);
-    let n = ranks.clamp(1, K);
-    let (mut p_avg, mut w_avg) = ([0.0f32; M], [0.0f32; D]);
-    for (&k, &al) in ranking.indices()[..n].iter().zip(alpha.value.iter()) {
-        let k = k as usize;
-        for (o, x) in p_avg.iter_mut().zip(&net.p[k]) {
-            *o += al * x.get(TABLE_SCALES.p);
-        }
-        for (o, x) in w_avg.iter_mut().zip(&net.w[k]) {
-            *o += al * x.get(TABLE_SCALES.w);
-        }
-    }
-    let norm = 1.0 / alpha.sum(n);
-    let diff: [f32; D] = core::array::from_fn(|d| u[d] - w_avg[d] * norm);
-    core::array::from_fn(|m| {
-        let smooth = p_avg[m] * norm + a_bar[m].iter().zip(&diff).map(|(a, x)| a * x).sum::<f32>();
-        (1.0 - beta) * p_bar[m] + beta * smooth
-    })
-}
-
 /// The start of a learning trial in one pass over the ranked neurons: the weight update
 /// [`update_weights`] towards `u`, then (supervised, `pressures = Some((coeff, p_ref))`)
 /// the pressure update [`update_pressures`] at `x = u`, then [`coarse_output`] at `u` over
@@ -600,89 +562,6 @@ fn jacobian_rows<const N: usize, const D: usize, const M: usize>(
     acc
 }
 
-/// The forward form of the trial's secant correction ([`crate::StageConfig::forward_secant`]):
-/// "good" Broyden on the trial's forward Jacobian `J` (`D x M`, pixels per pressure unit),
-/// `J += gain (dv - J dp) dp^T / ||dp||^2`. The pressure change `dp` is the controller's own
-/// command, known exactly, and the camera noise in `dv` is the regression's output noise, so
-/// the update has no errors-in-variables attenuation (the inverse rule regresses `dp` on the
-/// noisy `dv`). Returns [`Error::ZeroLengthDv`] without touching `j` when `||dv||` is below the rule's minimum
-/// (the move was within the camera noise) or when `dp` is zero.
-pub fn forward_secant_update<const D: usize, const M: usize>(
-    j: &mut [[f32; M]; D],
-    gain: f32,
-    dp: &[f32; M],
-    dv: &[f32; D],
-    rule: DvRule,
-) -> Result<()> {
-    inverse_dv_norm2(dv, rule)?;
-    let inv = inverse_dv_norm2(dp, DvRule::at_least(0.0))?;
-    // the rows of J are those of the inverse rule with the roles of dp and dv exchanged
-    secant_rows(j.as_flattened_mut(), gain * inv, dv, dp);
-    Ok(())
-}
-
-/// The Moore-Penrose pseudo-inverse `B^T (B B^T)^-1` of a `R x C` matrix `B` of full row
-/// rank (`R <= C <= 8`), regularised by `1e-6` of the trace of `B B^T`; `None` when `B B^T`
-/// is singular or not finite. `A_bar` (`M x D`) gives the forward Jacobian whose
-/// least-squares step is `A_bar`'s own; `J^T` (`M x D`) gives `(J^+)^T`.
-pub fn pseudo_inverse<const R: usize, const C: usize>(b: &[[f32; C]; R]) -> Option<[[f32; R]; C]> {
-    let mut out = [[0.0; R]; C];
-    pseudo_inverse_into(b.as_flattened(), R, out.as_flattened_mut())?;
-    Some(out)
-}
-
-/// [`pseudo_inverse`] on row-major slices (`b`: `r x c`, `out`: `c x r`); one copy for every
-/// size, so that the firmware's flash holds no copy per stage.
-#[inline(never)]
-fn pseudo_inverse_into(b: &[f32], r: usize, out: &mut [f32]) -> Option<()> {
-    const MAX: usize = 8;
-    let c = b.len() / r.max(1);
-    if r == 0 || r > MAX || c > MAX || b.len() != r * c || out.len() != r * c {
-        return None;
-    }
-    // G = B B^T + ridge, then Gauss-Jordan with partial pivoting on [G | I]
-    let mut g = [[0.0f32; 2 * MAX]; MAX];
-    for i in 0..r {
-        for k in 0..r {
-            g[i][k] = (0..c).map(|j| b[i * c + j] * b[k * c + j]).sum();
-        }
-        g[i][r + i] = 1.0;
-    }
-    let ridge = 1e-6 * (0..r).map(|i| g[i][i]).sum::<f32>();
-    (0..r).for_each(|i| g[i][i] += ridge);
-    for col in 0..r {
-        let mut pivot = col;
-        for row in col + 1..r {
-            if g[row][col].abs() > g[pivot][col].abs() {
-                pivot = row;
-            }
-        }
-        g.swap(pivot, col);
-        let pv = g[col][col];
-        if !(pv.abs() > 0.0 && pv.is_finite()) {
-            return None;
-        }
-        let inv = 1.0 / pv;
-        g[col][..2 * r].iter_mut().for_each(|x| *x *= inv);
-        let pivot_row = g[col];
-        for (row, line) in g[..r].iter_mut().enumerate() {
-            let f = line[col];
-            if row != col && f != 0.0 {
-                for (x, p) in line[..2 * r].iter_mut().zip(&pivot_row[..2 * r]) {
-                    *x -= f * p;
-                }
-            }
-        }
-    }
-    // B^T G^-1: entry (j, k) = sum_i B[i][j] G^-1[i][k]
-    for j in 0..c {
-        for k in 0..r {
-            out[j * r + k] = (0..r).map(|i| b[i * c + j] * g[i][r + k]).sum();
-        }
-    }
-    out.iter().all(|x| x.is_finite()).then_some(())
-}
-
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
 mod tests {
@@ -1002,70 +881,6 @@ mod tests {
             Err(Error::ZeroLengthDv)
         );
         assert_eq!(c, a0);
-    }
-
-    #[test]
-    fn forward_secant_matches_the_move_and_keeps_the_orthogonal_directions() {
-        // J: 3 coordinates per 2 pressures
-        let j0 = [[10.0, -20.0], [5.0, 40.0], [0.0, 3.0]];
-        let (dp, dv) = ([0.05, 0.1], [3.0, -4.0, 1.0]);
-        let q = [-0.1, 0.05]; // orthogonal to dp
-        let apply = |j: &[[f32; 2]; 3], x: &[f32; 2]| j.map(|row| row[0] * x[0] + row[1] * x[1]);
-        let mut j = j0;
-        forward_secant_update(&mut j, 1.0, &dp, &dv, DvRule::at_least(1.0)).unwrap();
-        let got = apply(&j, &dp);
-        for d in 0..3 {
-            assert!((got[d] - dv[d]).abs() < 1e-5, "{got:?}");
-            assert!((apply(&j, &q)[d] - apply(&j0, &q)[d]).abs() < 1e-5);
-        }
-        // gain 0.3: 30 % of the way
-        let mut k = j0;
-        forward_secant_update(&mut k, 0.3, &dp, &dv, DvRule::at_least(1.0)).unwrap();
-        let (old, new) = (apply(&j0, &dp), apply(&k, &dp));
-        for d in 0..3 {
-            assert!((new[d] - (old[d] + 0.3 * (dv[d] - old[d]))).abs() < 1e-5);
-        }
-        // a move within the camera noise, or no pressure change, changes nothing
-        let mut c = j0;
-        let short = [0.5, 0.0, 0.0];
-        assert_eq!(
-            forward_secant_update(&mut c, 0.3, &dp, &short, DvRule::at_least(1.0)),
-            Err(Error::ZeroLengthDv)
-        );
-        assert_eq!(
-            forward_secant_update(&mut c, 0.3, &[0.0, 0.0], &dv, DvRule::at_least(1.0)),
-            Err(Error::ZeroLengthDv)
-        );
-        assert_eq!(c, j0);
-    }
-
-    #[test]
-    fn the_pseudo_inverse_is_a_right_inverse_and_refuses_a_singular_matrix() {
-        let b = [[0.01, -0.02, 0.03, 0.0], [0.0, 0.04, -0.01, 0.02]];
-        let pinv = pseudo_inverse(&b).unwrap();
-        for i in 0..2 {
-            for k in 0..2 {
-                let x: f32 = (0..4).map(|c| b[i][c] * pinv[c][k]).sum();
-                let want = if i == k { 1.0 } else { 0.0 };
-                assert!((x - want).abs() < 1e-3, "B B+ [{i}][{k}] = {x}");
-            }
-        }
-        // the pseudo-inverse of the pseudo-inverse is B again (full row rank)
-        let back = pseudo_inverse(&transpose4x2(&pinv)).map(|m| transpose4x2(&m));
-        for (row, want) in back.unwrap().iter().zip(&b) {
-            for (x, w) in row.iter().zip(want) {
-                assert!((x - w).abs() < 1e-4, "{x} against {w}");
-            }
-        }
-        // rank-deficient rows: the ridge keeps the answer finite; a zero matrix, NaN: none
-        let deficient = pseudo_inverse(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0]]).unwrap();
-        assert!(deficient.iter().flatten().all(|x| x.is_finite()));
-        assert!(pseudo_inverse(&[[0.0f32; 3]; 2]).is_none());
-        assert!(pseudo_inverse(&[[f32::NAN, 0.0], [0.0, 1.0]]).is_none());
-    }
-
-    fn transpose4x2(m: &[[f32; 2]; 4]) -> [[f32; 4]; 2] {
-        core::array::from_fn(|r| core::array::from_fn(|c| m[c][r]))
     }
 
     #[test]

@@ -14,11 +14,6 @@ use crate::rules::{self, Falloff};
 pub use crate::trial::{check_input, FineMoves, StageOutcome, StageStep, TRACE_LEN, ZERO_OUTCOME};
 use crate::trial::{distance, sub};
 
-/// `m^T`.
-fn transpose<const R: usize, const C: usize>(m: &[[f32; C]; R]) -> [[f32; R]; C] {
-    core::array::from_fn(|c| core::array::from_fn(|r| m[r][c]))
-}
-
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Idle,
@@ -65,9 +60,6 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     /// first, then corrected by the secant of each move (valid from the trial's second fine
     /// move on; kept outside [`Trial`] so that starting a trial does not write it).
     a_bar: [[f32; D]; M],
-    /// With [`StageConfig::forward_secant`], the trial's forward Jacobian (pixels per
-    /// pressure unit) whose pseudo-inverse `a_bar` then is.
-    j_fwd: [[f32; M]; D],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -97,7 +89,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
-            j_fwd: [[0.0; M]; D],
         }
     }
 
@@ -291,14 +282,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 self.cfg.coarse_ranks as usize,
             )
         };
-        let beta = self.cfg.coarse_blend;
-        let p_bar = if beta > 0.0 {
-            let (ranks, fine) = (self.cfg.coarse_ranks as usize, self.cfg.fine_ranks as usize);
-            let (net, r, al) = (&self.net, &self.ranking, &self.alpha);
-            rules::blend_coarse(net, r, al, target, ranks, fine, &p_bar, beta)
-        } else {
-            p_bar
-        };
         let p_map = p_bar;
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {
@@ -439,25 +422,15 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             Some(a) => a,
             None if !tr.learn && tr.outcome.fine_moves > 0 => {
                 // mature operation after the first fine move (this observation followed a
-                // fine move): the tables and the ranking are unchanged, so the average is the
-                // one held since the first; corrected by the secant of the move just made
+                // fine move): the tables are unchanged, so the average is the one held since
+                // the first (the ranking may since be the reached position's, for the map's
+                // step: it is not used again); corrected by the secant of the move just made
                 // (`StageConfig::trial_secant`)
                 let gain = self.cfg.trial_secant;
                 if gain > 0.0 {
                     let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
                     let rule = self.cfg.dv_rule();
-                    let updated = if self.cfg.forward_secant {
-                        rules::forward_secant_update(&mut self.j_fwd, gain, &dp, &dv, rule).map(
-                            |()| {
-                                // a singular J keeps the last step's matrix
-                                if let Some(a) = rules::pseudo_inverse(&transpose(&self.j_fwd)) {
-                                    self.a_bar = transpose(&a);
-                                }
-                            },
-                        )
-                    } else {
-                        rules::secant_update(&mut self.a_bar, gain, &dp, &dv, rule)
-                    };
+                    let updated = rules::secant_update(&mut self.a_bar, gain, &dp, &dv, rule);
                     if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
@@ -474,10 +447,6 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 if !tr.learn {
                     // held for the trial's later fine moves
                     self.a_bar = a;
-                    if self.cfg.forward_secant {
-                        // the forward Jacobian whose least-squares step is A_bar's
-                        self.j_fwd = rules::pseudo_inverse(&a).unwrap_or([[0.0; M]; D]);
-                    }
                 }
                 a
             }
@@ -557,14 +526,8 @@ mod tests {
     /// The errors after the coarse move and 3 fine moves of a mature trial, with every
     /// neuron's map `A0` (so the averaged Jacobian is `A0`), and whether the tables changed.
     fn errors(gain: f32) -> ([f32; 4], bool) {
-        errors_with(gain, false)
-    }
-
-    /// [`errors`] with the trial's secant in its forward form or not.
-    fn errors_with(gain: f32, forward: bool) -> ([f32; 4], bool) {
         let mut cfg = Config::project_default().stage1;
         cfg.trial_secant = gain;
-        cfg.forward_secant = forward;
         cfg.min_dv = 1e-3;
         let mut s: Stage<4, 2, 2, 4> = Stage::new(cfg);
         s.set_config(cfg).unwrap();
@@ -613,23 +576,6 @@ mod tests {
         assert!(e[2] < 1e-3 * e[0], "{e:?}");
         // the project's gain: part of the way, every move better than without
         let (e3, _) = errors(Config::project_default().stage1.trial_secant);
-        let (e0, _) = errors(0.0);
-        assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
-    }
-
-    #[test]
-    fn the_forward_secant_corrects_the_gain_within_the_trial_and_learns_nothing() {
-        // full gain: the first move's secant gives J its true gain along dp, and the
-        // least-squares step of the corrected J lands the second fine move on the target
-        let (e, changed) = errors_with(1.0, true);
-        assert!(!changed, "nothing is learned in mature operation");
-        assert!(
-            (e[1] / e[0] - 0.5).abs() < 1e-3,
-            "the first fine move is the paper's"
-        );
-        assert!(e[2] < 1e-3 * e[0], "{e:?}");
-        // partial gain: better than no correction at every later move
-        let (e3, _) = errors_with(0.3, true);
         let (e0, _) = errors(0.0);
         assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
     }

@@ -64,8 +64,6 @@ impl Bytes {
         self.f32(s.dv_noise);
         self.f32(s.trial_secant);
         self.f32(s.map_step);
-        self.f32(s.coarse_blend);
-        self.u8(s.forward_secant.into());
         for x in [
             s.pressure_limit,
             s.input_min,

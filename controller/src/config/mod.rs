@@ -170,19 +170,6 @@ pub struct StageConfig {
     /// (8.14). A deviation, off in every preset; the study `studies/precision.toml` measures
     /// it ([`crate::stage`]).
     pub map_step: f32,
-    /// Weight of the smooth map in the coarse output (`0` = off, the paper's 8.5/8.11):
-    /// every neuron's local map extrapolated to the target with the averaged Jacobian
-    /// `A_bar` (the fine move's) instead of its own `A_k`, blended by this weight
-    /// ([`crate::rules::blend_coarse`]; one more averaged Jacobian per trial). A deviation,
-    /// off in every preset; the study `studies/precision.toml` measures it.
-    pub coarse_blend: f32,
-    /// The trial's secant correction ([`StageConfig::trial_secant`]) made on a forward
-    /// Jacobian `J` (pixels per pressure unit: "good" Broyden, `J += g (dv - J dp) dp^T /
-    /// ||dp||^2`), started from the pseudo-inverse of the averaged Jacobian, each later fine
-    /// move the pseudo-inverse of `J` (`false` = the rank-one rule on `A_bar` itself,
-    /// regressing `dp` on the noisy `dv`). A deviation, off in every preset; the study
-    /// `studies/precision.toml` measures it ([`crate::rules::forward_secant_update`]).
-    pub forward_secant: bool,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -384,8 +371,6 @@ impl Config {
             dv_noise: 0.0,
             trial_secant: 0.0,
             map_step: 0.0,
-            coarse_blend: 0.0,
-            forward_secant: false,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -505,8 +490,6 @@ const ZERO_STAGE: StageConfig = StageConfig {
     dv_noise: 0.0,
     trial_secant: 0.0,
     map_step: 0.0,
-    coarse_blend: 0.0,
-    forward_secant: false,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
