@@ -351,7 +351,7 @@ trials = 3
 key = "plain"
 [[row]]
 key = "tuned"
-controller = { "*.map_step" = 0.7, "stage1.dv_noise" = 2, "stage2.forward_secant" = true }
+controller = { "*.map_step" = 0.7, "stage1.dv_noise" = 2, "stage2.max_fine_moves" = 4 }
 [[axis]]
 key = "controller.stage2.trial_secant"
 values = [0.0, 0.5]
@@ -377,7 +377,7 @@ values = [0.0, 0.5]
             want.stage1.map_step = 0.7;
             want.stage2.map_step = 0.7;
             want.stage1.dv_noise = 2.0;
-            want.stage2.forward_secant = true;
+            want.stage2.max_fine_moves = 4;
         }
         assert_eq!(got, want, "{}", job.row.name);
     }
@@ -409,11 +409,11 @@ fn controller_keys_name_what_is_wrong_in_them() {
         "{e}"
     );
     let e = refused(
-        &row(r#"controller = { "stage1.forward_secant" = 1.0 }"#),
+        &row(r#"controller = { "stage1.max_fine_moves" = 1.5 }"#),
         &Overrides::default(),
     );
     assert!(
-        e.contains("controller key `stage1.forward_secant` takes boolean"),
+        e.contains("controller key `stage1.max_fine_moves` takes integer"),
         "{e}"
     );
     let e = refused(
