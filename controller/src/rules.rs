@@ -22,6 +22,7 @@
 //!   fit the firmware's RAM budget (the rankings and rate tables of 1000 ranks); the cost is
 //!   named here and left for the neighbourhood schedule to recover.
 
+pub use crate::config::DvRule;
 use crate::entry::{Entry, Table, TABLE_SCALES};
 use crate::error::{Error, Result};
 use crate::net::Trn;
@@ -373,24 +374,6 @@ pub fn clamp<const M: usize>(p: &[f32; M], limit: f32) -> [f32; M] {
     let mut out = *p;
     out.iter_mut().for_each(|x| *x = x.clamp(-limit, limit));
     out
-}
-
-/// Which moves the Jacobian rule learns from, and how much: skipped below `min` pixels of
-/// `||dv||` ([`crate::StageConfig::min_dv`]), and normalised by `||dv||^2 + noise^2`
-/// ([`crate::StageConfig::dv_noise`]; `noise = 0`: the paper's `||dv||^2`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DvRule {
-    /// The shortest `||dv||` learned from (pixels).
-    pub min: f32,
-    /// The regularisation of the normalisation (pixels).
-    pub noise: f32,
-}
-
-impl DvRule {
-    /// Moves of at least `min` pixels, the paper's normalisation.
-    pub const fn at_least(min: f32) -> DvRule {
-        DvRule { min, noise: 0.0 }
-    }
 }
 
 /// `1 / (||dv||^2 + noise^2)` for the Jacobian rule, or [`Error::ZeroLengthDv`] when

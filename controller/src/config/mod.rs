@@ -115,6 +115,24 @@ pub struct Init {
     pub jacobian: f32,
 }
 
+/// Which moves the Jacobian rule learns from, and how much: skipped below `min` pixels of
+/// `||dv||` ([`crate::StageConfig::min_dv`]), and normalised by `||dv||^2 + noise^2`
+/// ([`crate::StageConfig::dv_noise`]; `noise = 0`: the paper's `||dv||^2`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DvRule {
+    /// The shortest `||dv||` learned from (pixels).
+    pub min: f32,
+    /// The regularisation of the normalisation (pixels).
+    pub noise: f32,
+}
+
+impl DvRule {
+    /// Moves of at least `min` pixels, the paper's normalisation.
+    pub const fn at_least(min: f32) -> DvRule {
+        DvRule { min, noise: 0.0 }
+    }
+}
+
 /// The tunables of one network (stage 1 or stage 2).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageConfig {
@@ -185,8 +203,8 @@ pub struct StageConfig {
 impl StageConfig {
     /// The moves the Jacobian rule learns from ([`StageConfig::min_dv`],
     /// [`StageConfig::dv_noise`]).
-    pub const fn dv_rule(&self) -> crate::rules::DvRule {
-        crate::rules::DvRule {
+    pub const fn dv_rule(&self) -> DvRule {
+        DvRule {
             min: self.min_dv,
             noise: self.dv_noise,
         }
