@@ -866,6 +866,31 @@ mod tests {
         assert_eq!(c, a0);
     }
 
+    /// The regularised rule (`StageConfig::dv_noise`): a move of length `|dv|` takes the
+    /// prediction `|dv|^2 / (|dv|^2 + noise^2)` of the way to the move, so a move as long as
+    /// the noise teaches half as much (noise 0: the whole way, the test above).
+    #[test]
+    fn the_regularised_rule_teaches_a_short_move_less() {
+        let a0 = [[0.01, -0.02, 0.03], [0.0, 0.04, -0.01]];
+        let (dp, dv) = ([0.05, -0.02], [3.0, 4.0, 0.0]); // |dv| = 5
+        let apply = |a: &[[f32; 3]; 2]| {
+            a.map(|row| row.iter().zip(dv.iter()).map(|(r, v)| r * v).sum::<f32>())
+        };
+        let rule = DvRule {
+            min: 1.0,
+            noise: 5.0,
+        };
+        let mut a = a0;
+        secant_update(&mut a, 1.0, &dp, &dv, rule).unwrap();
+        let (old, new) = (apply(&a0), apply(&a));
+        for m in 0..2 {
+            assert!(
+                (new[m] - (old[m] + 0.5 * (dp[m] - old[m]))).abs() < 1e-6,
+                "{new:?}"
+            );
+        }
+    }
+
     #[test]
     fn fine_output_by_hand_and_clamped() {
         let p = fine_output(
