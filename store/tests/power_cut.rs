@@ -17,11 +17,15 @@ struct Outcomes {
     new: u32,
 }
 
+/// A store as the operation under test uses it.
+type Boot = fn(Flash) -> trn_store::FlashStore<Flash>;
+
 /// Runs `op` on a store over a copy of `flash` with power lost at every step it makes, boots
 /// after each cut, and checks the restored tables are `old` or `new`. Every `resave`-th cut
 /// also saves `new` after the reboot and checks it is then restored. Returns how many cut
 /// points were tried.
 fn every_cut(
+    boot: Boot,
     flash: &Flash,
     tear: bool,
     old: &Controller,
@@ -32,7 +36,7 @@ fn every_cut(
     // the steps of the whole operation, without a cut
     let mut f = flash.clone();
     f.reset_steps();
-    let mut dry = reboot(f);
+    let mut dry = boot(f);
     assert!(op(&mut dry), "the operation completes without a cut");
     let steps = dry.flash().steps();
     let mut out = Outcomes::default();
@@ -40,7 +44,7 @@ fn every_cut(
         let mut f = flash.clone();
         f.cut_power_at(k);
         f.tear(tear, k + 1);
-        let mut s = reboot(f);
+        let mut s = boot(f);
         assert!(
             !op(&mut s),
             "cut at step {k} of {steps}: the operation still completed"
@@ -78,7 +82,7 @@ fn power_cut_at_every_step_of_the_first_save_after_one_copy() {
     let mut s = store();
     save(&mut s, &old).unwrap();
     let flash = s.into_flash();
-    let (steps, out) = every_cut(&flash, false, &old, &new, 997, saves(&new));
+    let (steps, out) = every_cut(reboot, &flash, false, &old, &new, 997, saves(&new));
     println!(
         "power_cut (one copy stored, clean cuts): {steps} cut points tried; {} booted the previous tables, {} the new ones",
         out.old, out.new
@@ -102,7 +106,7 @@ fn power_cut_at_every_step_with_torn_words_and_pages_when_both_slots_hold_copies
     save(&mut s, &older).unwrap();
     save(&mut s, &old).unwrap();
     let flash = s.into_flash();
-    let (steps, out) = every_cut(&flash, true, &old, &new, 997, saves(&new));
+    let (steps, out) = every_cut(reboot, &flash, true, &old, &new, 997, saves(&new));
     println!(
         "power_cut (two copies stored, torn words and pages): {steps} cut points tried; {} booted the previous tables, {} the new ones",
         out.old, out.new
@@ -139,7 +143,7 @@ fn power_cut_at_every_step_of_staging_and_applying_an_image() {
         let mut into = blank();
         s.stage_apply(&mut into, expected).is_ok()
     };
-    let (steps, out) = every_cut(&flash, true, &old, &new, 1_999, stage);
+    let (steps, out) = every_cut(reboot, &flash, true, &old, &new, 1_999, stage);
     println!(
         "power_cut (staging an incoming image, torn): {steps} cut points tried; {} booted the previous tables, {} the new ones",
         out.old, out.new
@@ -180,4 +184,36 @@ fn power_cut_while_erasing_leaves_the_copy_or_nothing() {
         }
     }
     println!("power_cut (erasing the copies, torn): {steps} cut points tried");
+}
+
+/// A save on a flash that erases in the background, cancelled halfway through its erases (a
+/// trial began) and resumed, cut at every step: the previous tables or the new ones.
+#[test]
+fn power_cut_at_every_step_of_a_resumed_save_with_background_erases() {
+    let old = learned(8, 3);
+    let new = learned(9, 4);
+    let mut s = store();
+    save(&mut s, &old).unwrap();
+    let flash = s.into_flash();
+    let resumed = |s: &mut trn_store::FlashStore<Flash>| {
+        let mut run = || -> Result<(), trn_store::SaveError> {
+            s.save_begin(&new, Provenance::CUSTOM)?;
+            for _ in 0..20 {
+                s.save_step(&new)?;
+            }
+            s.save_cancel();
+            s.save_begin(&new, Provenance::CUSTOM)?;
+            while s.save_step(&new)?.is_none() {}
+            Ok(())
+        };
+        run().is_ok()
+    };
+    let boot: Boot = |f| reboot(f).with_background_erase();
+    let (steps, out) = every_cut(boot, &flash, true, &old, &new, 997, resumed);
+    println!(
+        "power_cut (a resumed save, background erases, torn words and pages): {steps} cut points tried; {} booted the previous tables, {} the new ones",
+        out.old, out.new
+    );
+    assert!(steps > 7_000);
+    assert_eq!(out.old + out.new, steps as u32);
 }

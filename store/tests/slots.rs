@@ -302,3 +302,72 @@ fn layouts_that_do_not_fit_are_refused() {
         Some(LayoutError::OutOfBounds)
     );
 }
+
+/// A save cancelled while it erases (a trial began) and begun again keeps the pages it
+/// erased: each page of its slot is erased once for the save. One cancelled after it began
+/// programming erases again only the pages it programmed.
+#[test]
+fn a_cancelled_save_resumes_its_erases() {
+    let t = learned(4, 2);
+    let mut s = store();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let pages = s.erases_left() as usize;
+    for _ in 0..pages / 2 {
+        s.save_step(&t).unwrap();
+    }
+    s.save_cancel();
+    assert!(!s.saving());
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    assert_eq!(s.erases_left() as usize, pages - pages / 2);
+    // the rest of the erases, then two steps of programming, then a cancel
+    for _ in 0..pages - pages / 2 + 2 {
+        s.save_step(&t).unwrap();
+    }
+    s.save_cancel();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let again = s.erases_left();
+    assert!(again >= 1 && (again as usize) < pages, "{again} of {pages}");
+    let copy = loop {
+        if let Some(c) = s.save_step(&t).unwrap() {
+            break c;
+        }
+    };
+    assert_eq!(copy.sequence, 1);
+    let counts = s.flash().erase_counts();
+    let erased: u32 = counts.iter().sum();
+    assert_eq!(erased as usize, pages + again as usize, "{counts:?}");
+    assert!(counts.iter().all(|&c| c <= 2));
+    let (got, _) = restored(&mut s);
+    assert!(same_tables(&got, &t));
+}
+
+/// With the erases in the background a save step never waits for one: on the H743's
+/// timing a step that starts or polls an erase takes no time of the caller's, one that
+/// programs takes its flash words' time; the save ends with each sector erased once.
+#[test]
+fn background_erases_take_no_time_of_a_step() {
+    use trn_store::sim::{FlashTiming, H743Flash, SimClock};
+    let t = learned(5, 1);
+    let clock = SimClock::new();
+    let slot = FlashStore::<H743Flash>::slot_size_needed();
+    let flash = H743Flash::new(2 * slot as usize / 131072)
+        .with_timing(clock.clone(), FlashTiming::H743_X32);
+    let mut s = FlashStore::new(flash, 0, slot)
+        .unwrap()
+        .with_background_erase();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let mut longest = 0;
+    let copy = loop {
+        let before = clock.now_us();
+        let step = s.save_step(&t).unwrap();
+        longest = longest.max(clock.now_us() - before);
+        if let Some(c) = step {
+            break c;
+        }
+        clock.advance(1_000);
+    };
+    // 4 KiB programmed: 128 flash words of 130 us
+    assert_eq!(longest, 128 * 130, "the longest step (us)");
+    assert_eq!(copy.sequence, 1);
+    assert_eq!(s.flash().erase_counts(), &[1, 1, 0, 0]);
+}

@@ -59,22 +59,62 @@ const SAVE_EVERY_STEPS: u32 = steps_between_saves(&Endurance {
 mod store {
     use cortex_m::peripheral::SCB;
     use embassy_stm32::flash::{Blocking, Error, Flash, FLASH_BASE, FLASH_SIZE};
+    use embassy_stm32::pac;
     use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
-    use trn_store::FlashStore;
+    use trn_store::{BackgroundErase, FlashStore};
+
+    /// A sector: 128 KiB.
+    const SECTOR: u32 = 128 * 1024;
+    /// PSIZE for erases: x32 parallelism (the 2.7-3.6 V range without an external VPP),
+    /// ST's 1.1 s typical / 2.2 s maximum per sector. embassy's word write leaves PSIZE at
+    /// x8 (its `CR` write starts from zero), at which an erase is slower, so each erase sets
+    /// it.
+    const PSIZE_X32: u8 = 0b10;
 
     /// Embassy's blocking driver of the whole flash (offsets from 0x0800_0000; sectors of
     /// 128 KiB, programmed 32 bytes at a time) with the data cache kept coherent: the flash is
     /// read through the D-cache (write-through), so the lines of what an erase or a program
     /// changed are invalidated after it (a stale line would show a header that is gone).
+    ///
+    /// The store's erases run in the background ([`BackgroundErase`]): the part's dual banks
+    /// read while they write, so with the image in bank 1 and the store in bank 2 a sector
+    /// erase of bank 2 is started through bank 2's registers and polled (BSY, QW) while the
+    /// node's loop runs from bank 1. embassy 0.6's blocking erase waits for it inside the
+    /// call (1.1-2.2 s at x32, the drives' heartbeat supervision is 500 ms); its async erase
+    /// needs an executor task for the store. Reads, writes and blocking erases wait for an
+    /// erase under way first (a read of bank 2 during its erase would stall the bus).
     pub struct CoherentFlash {
         flash: Flash<'static, Blocking>,
         /// `None` when the caches were left off.
         scb: Option<SCB>,
+        /// The offset of the sector whose erase is under way.
+        erasing: Option<u32>,
+    }
+
+    /// Bank 2's registers (the store's sectors are bank 2's sectors 4-7).
+    fn bank2() -> pac::flash::Bank {
+        pac::FLASH.bank(1)
+    }
+
+    /// Clears bank 2's error and end-of-operation flags.
+    fn clear_flags() {
+        bank2().ccr().write(|w| {
+            w.set_clr_eop(true);
+            w.set_clr_wrperr(true);
+            w.set_clr_pgserr(true);
+            w.set_clr_strberr(true);
+            w.set_clr_incerr(true);
+            w.set_clr_operr(true);
+        });
     }
 
     impl CoherentFlash {
         pub fn new(flash: Flash<'static, Blocking>, scb: Option<SCB>) -> Self {
-            CoherentFlash { flash, scb }
+            CoherentFlash {
+                flash,
+                scb,
+                erasing: None,
+            }
         }
 
         fn invalidate(&mut self, offset: u32, len: usize) {
@@ -94,6 +134,7 @@ mod store {
         const READ_SIZE: usize = <Flash<'static, Blocking> as ReadNorFlash>::READ_SIZE;
 
         fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Error> {
+            self.erase_wait()?;
             self.flash.read(offset, bytes)
         }
 
@@ -107,15 +148,78 @@ mod store {
         const ERASE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::ERASE_SIZE;
 
         fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Error> {
+            self.erase_wait()?;
             let done = self.flash.write(offset, bytes);
             self.invalidate(offset, bytes.len());
             done
         }
 
         fn erase(&mut self, from: u32, to: u32) -> Result<(), Error> {
+            self.erase_wait()?;
             let done = self.flash.erase(from, to);
             self.invalidate(from, to.saturating_sub(from) as usize);
             done
+        }
+    }
+
+    impl BackgroundErase for CoherentFlash {
+        /// RM0433's sector erase on bank 2: unlock, SER with the sector and PSIZE, START;
+        /// only sectors of bank 2 (the store's).
+        fn erase_start(&mut self, offset: u32) -> Result<(), Error> {
+            self.erase_wait()?;
+            let bank_size = FLASH_SIZE as u32 / 2;
+            if offset < bank_size || offset >= FLASH_SIZE as u32 {
+                return Err(Error::Size);
+            }
+            if !offset.is_multiple_of(SECTOR) {
+                return Err(Error::Unaligned);
+            }
+            let bank = bank2();
+            if bank.sr().read().bsy() || bank.sr().read().qw() {
+                return Err(Error::Seq);
+            }
+            clear_flags();
+            if bank.cr().read().lock() {
+                bank.keyr().write_value(0x4567_0123);
+                bank.keyr().write_value(0xCDEF_89AB);
+            }
+            bank.cr().modify(|w| {
+                w.set_ser(true);
+                w.set_snb(((offset - bank_size) / SECTOR) as u8);
+                w.set_psize(PSIZE_X32);
+            });
+            bank.cr().modify(|w| w.set_start(true));
+            cortex_m::asm::dsb();
+            self.erasing = Some(offset);
+            Ok(())
+        }
+
+        fn erase_done(&mut self) -> Result<bool, Error> {
+            let Some(offset) = self.erasing else {
+                return Ok(true);
+            };
+            let bank = bank2();
+            let sr = bank.sr().read();
+            if sr.bsy() || sr.qw() {
+                return Ok(false);
+            }
+            self.erasing = None;
+            bank.cr().modify(|w| w.set_ser(false));
+            bank.cr().modify(|w| w.set_lock(true));
+            clear_flags();
+            self.invalidate(offset, SECTOR as usize);
+            if sr.wrperr() {
+                Err(Error::Protected)
+            } else if sr.pgserr() || sr.strberr() || sr.incerr() || sr.operr() {
+                Err(Error::Seq)
+            } else {
+                Ok(true)
+            }
+        }
+
+        fn erase_wait(&mut self) -> Result<(), Error> {
+            while !self.erase_done()? {}
+            Ok(())
         }
     }
 
@@ -209,7 +313,9 @@ async fn main(_spawner: Spawner) {
         return;
     }
     let flash = store::CoherentFlash::new(embassy_stm32::flash::Flash::new_blocking(p.FLASH), scb);
-    let Ok(store) = store::Store::new(flash, store::STORE_AT, store::SLOT) else {
+    let Ok(store) = store::Store::new(flash, store::STORE_AT, store::SLOT)
+        .map(store::Store::with_background_erase)
+    else {
         defmt::error!("the tables' store does not fit its flash region: not started");
         return;
     };
