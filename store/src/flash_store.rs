@@ -28,6 +28,16 @@ fn code<E: NorFlashError>(e: E) -> u8 {
     }
 }
 
+/// True for a read the flash refused for the data it holds (`NorFlashErrorKind::Other`: an
+/// ECC error, a torn word on a part with ECC), not for the request (alignment, bounds): what
+/// it was reading is damaged, as a CRC that fails.
+fn unreadable<E: NorFlashError>(e: &E) -> bool {
+    !matches!(
+        e.kind(),
+        NorFlashErrorKind::NotAligned | NorFlashErrorKind::OutOfBounds
+    )
+}
+
 /// Why a region cannot hold the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LayoutError {
@@ -69,7 +79,8 @@ pub enum RestoreError {
     Image(CkptError),
     /// A trial is running.
     Busy,
-    /// The flash refused a read.
+    /// The flash refused a read request (alignment, bounds: a layout this flash does not
+    /// have). A read refused for the data (an ECC error) makes that copy damaged instead.
     Flash(u8),
 }
 
@@ -163,6 +174,8 @@ pub struct FlashStore<F: NorFlash> {
     job: Job,
     prepared: Option<Prepared>,
     background: Option<Background<F>>,
+    /// Bit `s` set: slot `s`'s header could not be read at its last read (an ECC error).
+    unreadable: u8,
 }
 
 /// A slot's image as a checkpoint source.
@@ -259,6 +272,7 @@ impl<F: NorFlash> FlashStore<F> {
             job: Job::None,
             prepared: None,
             background: None,
+            unreadable: 0,
         })
     }
 
@@ -383,12 +397,28 @@ impl<F: NorFlash> FlashStore<F> {
         self.slot_size - Self::IMAGE_AT
     }
 
+    /// The slots whose header the flash refused to read at its last read (bit `s` for slot
+    /// `s`): a word torn by a power cut on a part with ECC. Such a slot holds no copy; the
+    /// next save or staged image goes to it and its erase mends the flash.
+    pub fn unreadable_slots(&self) -> u8 {
+        self.unreadable
+    }
+
+    /// Slot `slot`'s header; an unreadable one (an ECC error) is [`Decoded::Invalid`].
     fn header(&mut self, slot: u8) -> Result<Decoded, F::Error> {
         self.settle()?;
         let mut b = [0u8; HEADER_LEN];
         let at = self.slot_at(slot);
-        read_unaligned(&mut self.flash, at, &mut b)?;
-        Ok(SlotHeader::decode(&b))
+        let read = read_unaligned(&mut self.flash, at, &mut b);
+        self.unreadable &= !(1 << slot);
+        match read {
+            Ok(()) => Ok(SlotHeader::decode(&b)),
+            Err(e) if unreadable(&e) => {
+                self.unreadable |= 1 << slot;
+                Ok(Decoded::Invalid)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The valid headers of both slots, newest first.
@@ -420,19 +450,21 @@ impl<F: NorFlash> FlashStore<F> {
     }
 
     /// True when the image of a valid header is intact: the CRC it names is its last four
-    /// bytes and the image checks.
+    /// bytes and the image checks (an image the flash refuses to read is not).
     fn intact(&mut self, slot: u8, h: &SlotHeader) -> Result<bool, F::Error> {
         if h.len < 8 || h.len > self.capacity() {
             return Ok(false);
         }
         let mut img = self.image(slot, h.len);
         let mut crc = [0u8; 4];
-        img.read(h.len as usize - 4, &mut crc)?;
-        if u32::from_le_bytes(crc) != h.image_crc {
-            return Ok(false);
-        }
-        match checkpoint::verify_from(&mut img) {
-            Ok(_) => Ok(true),
+        let verdict = match img.read(h.len as usize - 4, &mut crc) {
+            Ok(()) if u32::from_le_bytes(crc) != h.image_crc => return Ok(false),
+            Ok(()) => checkpoint::verify_from(&mut img).map(|_| true),
+            Err(e) => Err(SourceError::Read(e)),
+        };
+        match verdict {
+            Ok(v) => Ok(v),
+            Err(SourceError::Read(e)) if unreadable(&e) => Ok(false),
             Err(SourceError::Read(e)) => Err(e),
             Err(SourceError::Checkpoint(e)) => Ok(!is_damage(&e)),
         }
@@ -454,8 +486,8 @@ impl<F: NorFlash> FlashStore<F> {
 
     /// Restores the newest intact copy into `ctrl` (at boot). With `expected`, a copy learned
     /// under another configuration fingerprint is refused. A damaged newest copy falls back
-    /// to the previous one; an intact one this build does not take is refused, never
-    /// replaced by an older one.
+    /// to the previous one (so does a copy the flash refuses to read: an ECC error); an
+    /// intact one this build does not take is refused, never replaced by an older one.
     pub fn restore(
         &mut self,
         ctrl: &mut Controller,
@@ -488,12 +520,14 @@ impl<F: NorFlash> FlashStore<F> {
             }
             let mut img = self.image(slot, h.len);
             let mut crc = [0u8; 4];
-            img.read(h.len as usize - 4, &mut crc).map_err(flash)?;
-            if u32::from_le_bytes(crc) != h.image_crc {
-                continue;
-            }
-            match checkpoint::restore_from(ctrl, &mut img) {
+            let restored = match img.read(h.len as usize - 4, &mut crc) {
+                Ok(()) if u32::from_le_bytes(crc) != h.image_crc => continue,
+                Ok(()) => checkpoint::restore_from(ctrl, &mut img),
+                Err(e) => Err(SourceError::Read(e)),
+            };
+            match restored {
                 Ok(header) => return Ok(StoredCopy::of(h.sequence, &header, h.len)),
+                Err(SourceError::Read(e)) if unreadable(&e) => continue,
                 Err(SourceError::Read(e)) => return Err(flash(e)),
                 Err(SourceError::Checkpoint(e)) if is_damage(&e) => continue,
                 Err(SourceError::Checkpoint(e)) => return Err(RestoreError::Image(e)),

@@ -5,6 +5,12 @@
 //! with only some of its bits programmed, a page only partly erased. After the cut every
 //! operation fails until power is restored ([`SimFlash::restore_power`]), as after a reset.
 //!
+//! With [`SimFlash::with_ecc`] the flash checks each write unit as a part with ECC does (an
+//! STM32H7: a 256-bit flash word and its ECC bits): a word whose program or whose page's
+//! erase was torn by a cut holds data and ECC that disagree, and a read that touches it is
+//! refused with [`SimFlashError::Ecc`] (on the H7 an uncorrectable double error, a bus fault
+//! on a plain read) instead of returning data; the page's next complete erase mends it.
+//!
 //! With [`SimFlash::with_timing`] the flash also takes time, on a [`SimClock`] the test's
 //! loop shares: a blocking erase or a program moves the clock on by its duration (the
 //! caller's loop stands still meanwhile), an erase started in the background
@@ -95,8 +101,11 @@ pub enum SimFlashError {
     OutOfBounds,
     /// Power was lost (at this step or before it).
     PowerLost,
-    /// A word programmed twice without an erase between.
+    /// A word programmed twice without an erase between (or torn, with ECC).
     NotErased,
+    /// A read touched a word whose data and ECC disagree (a torn program or erase, with
+    /// [`SimFlash::with_ecc`]): the data cannot be read.
+    Ecc,
 }
 
 impl NorFlashError for SimFlashError {
@@ -122,6 +131,10 @@ pub struct SimFlash<const WRITE: usize, const ERASE: usize> {
     timing: Option<(SimClock, FlashTiming)>,
     /// When the erase under way ends (µs of the clock).
     busy_until: u64,
+    /// With ECC: each write unit's data and ECC disagree (`None`: no ECC).
+    torn: Option<Vec<bool>>,
+    /// Reads refused for a torn word so far.
+    ecc_faults: u64,
 }
 
 impl<const WRITE: usize, const ERASE: usize> SimFlash<WRITE, ERASE> {
@@ -137,7 +150,50 @@ impl<const WRITE: usize, const ERASE: usize> SimFlash<WRITE, ERASE> {
             erases: vec![0; pages],
             timing: None,
             busy_until: 0,
+            torn: None,
+            ecc_faults: 0,
         }
+    }
+
+    /// The same flash with ECC (see the module documentation): a torn word is an error to
+    /// read, not data.
+    pub fn with_ecc(mut self) -> Self {
+        self.torn = Some(vec![false; self.mem.len() / WRITE]);
+        self
+    }
+
+    /// Write units whose data and ECC disagree now (0 without ECC).
+    pub fn torn_words(&self) -> usize {
+        self.torn
+            .as_ref()
+            .map_or(0, |t| t.iter().filter(|&&w| w).count())
+    }
+
+    /// Leaves the write unit holding `offset` with data and ECC that disagree, as a program
+    /// cut short does (with ECC; without it nothing changes).
+    pub fn tear_word(&mut self, offset: u32) {
+        let word = offset as usize / WRITE;
+        self.mark(word..word + 1, true);
+    }
+
+    /// Reads refused with [`SimFlashError::Ecc`] so far.
+    pub fn ecc_faults(&self) -> u64 {
+        self.ecc_faults
+    }
+
+    /// Marks the write units `words` torn (with ECC) or whole.
+    fn mark(&mut self, words: core::ops::Range<usize>, torn: bool) {
+        if let Some(t) = self.torn.as_mut() {
+            t[words].fill(torn);
+        }
+    }
+
+    /// True when a write unit in `at..at + len` is torn (with ECC).
+    fn any_torn(&self, at: usize, len: usize) -> bool {
+        let Some(t) = self.torn.as_ref() else {
+            return false;
+        };
+        len > 0 && t[at / WRITE..(at + len).div_ceil(WRITE)].iter().any(|&w| w)
     }
 
     /// The same flash taking time on `clock` (see the module documentation).
@@ -171,18 +227,22 @@ impl<const WRITE: usize, const ERASE: usize> SimFlash<WRITE, ERASE> {
     /// at this step.
     fn erase_page(&mut self, page: usize) -> bool {
         let range = page * ERASE..(page + 1) * ERASE;
+        let words = page * ERASE / WRITE..(page + 1) * ERASE / WRITE;
         if !self.step() {
             if self.tear {
-                // an erase cut short: some bytes erased, the others as they were
+                // an erase cut short: some bytes erased, the others as they were; with ECC
+                // every word of the page is left with data and ECC that disagree
                 for at in range {
                     if self.random() & 1 == 1 {
                         self.mem[at] = 0xFF;
                     }
                 }
+                self.mark(words, true);
             }
             return false;
         }
         self.mem[range].fill(0xFF);
+        self.mark(words, false);
         self.erases[page] += 1;
         true
     }
@@ -279,6 +339,10 @@ impl<const WRITE: usize, const ERASE: usize> ReadNorFlash for SimFlash<WRITE, ER
         self.check(offset, bytes.len(), 1)?;
         self.wait();
         let at = offset as usize;
+        if self.any_torn(at, bytes.len()) {
+            self.ecc_faults += 1;
+            return Err(SimFlashError::Ecc);
+        }
         bytes.copy_from_slice(&self.mem[at..at + bytes.len()]);
         Ok(())
     }
@@ -313,16 +377,18 @@ impl<const WRITE: usize, const ERASE: usize> NorFlash for SimFlash<WRITE, ERASE>
         for (k, word) in bytes.chunks_exact(WRITE).enumerate() {
             self.spend(|t| t.program_us);
             let at = offset as usize + k * WRITE;
-            if self.mem[at..at + WRITE].iter().any(|&b| b != 0xFF) {
+            if self.mem[at..at + WRITE].iter().any(|&b| b != 0xFF) || self.any_torn(at, WRITE) {
                 return Err(SimFlashError::NotErased);
             }
             if !self.step() {
                 if self.tear {
-                    // a program cut short: some of the bits to clear are cleared
+                    // a program cut short: some of the bits to clear are cleared, and with
+                    // ECC the word's data and ECC disagree
                     for (i, &b) in word.iter().enumerate() {
                         let keep = self.random() as u8;
                         self.mem[at + i] &= b | keep;
                     }
+                    self.mark(at / WRITE..at / WRITE + 1, true);
                 }
                 return Err(SimFlashError::PowerLost);
             }

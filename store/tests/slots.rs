@@ -371,3 +371,87 @@ fn background_erases_take_no_time_of_a_step() {
     assert_eq!(copy.sequence, 1);
     assert_eq!(s.flash().erase_counts(), &[1, 1, 0, 0]);
 }
+
+/// With ECC (the STM32H7's), a torn word is a fault to read: a slot whose header or image
+/// holds one is no copy, the other slot's boots, the slot is reported, and the next save
+/// goes into it and mends it.
+#[test]
+fn a_torn_word_with_ecc_is_a_damaged_copy_reported_and_mended_by_the_next_save() {
+    let (old, new) = (learned(1, 2), learned(2, 3));
+    for (what, at) in [("header", 0usize), ("image", 90_000)] {
+        let mut s = store_ecc();
+        save(&mut s, &old).unwrap();
+        save(&mut s, &new).unwrap();
+        let mut f = s.into_flash();
+        f.tear_word((slot_at(slot_of(2)) + at) as u32);
+        assert_eq!(f.torn_words(), 1);
+        let mut s = reboot(f);
+        let (got, r) = restored(&mut s);
+        assert_eq!(r.unwrap().sequence, 1, "{what}: the previous copy");
+        assert!(same_tables(&got, &old), "{what}");
+        assert!(s.flash().ecc_faults() > 0, "{what}: the torn word was met");
+        let reported = if what == "header" { 1 << slot_of(2) } else { 0 };
+        assert_eq!(s.unreadable_slots(), reported, "{what}");
+        let newer = learned(3, 1);
+        save(&mut s, &newer).unwrap();
+        assert_eq!(
+            s.flash().torn_words(),
+            0,
+            "{what}: the save erased the torn word"
+        );
+        let (got, r) = restored(&mut s);
+        r.unwrap();
+        assert!(same_tables(&got, &newer), "{what}");
+        assert_eq!(s.unreadable_slots(), 0);
+    }
+    // both headers torn: nothing restored (a typed error, not a flash error), a save works
+    let mut s = store_ecc();
+    save(&mut s, &old).unwrap();
+    save(&mut s, &new).unwrap();
+    let mut f = s.into_flash();
+    f.tear_word(slot_at(0) as u32 + 32);
+    f.tear_word(slot_at(1) as u32);
+    let mut s = reboot(f);
+    let (got, r) = restored(&mut s);
+    assert_eq!(r, Err(RestoreError::AllCorrupt));
+    assert!(same_tables(&got, &blank()));
+    assert_eq!(s.unreadable_slots(), 0b11);
+    save(&mut s, &new).unwrap();
+    let (got, _) = restored(&mut s);
+    assert!(same_tables(&got, &new));
+}
+
+#[test]
+fn the_simulated_ecc_refuses_a_torn_word_until_its_page_is_erased() {
+    use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
+    use trn_store::sim::SimFlashError;
+    let mut f = Flash::new(2).with_ecc();
+    f.write(4096, &[0x5A; 64]).unwrap();
+    f.tear_word(4096 + 32);
+    let mut b = [0u8; 32];
+    f.read(4096, &mut b).unwrap();
+    assert_eq!(b, [0x5A; 32], "the whole word beside it reads");
+    assert_eq!(f.read(4096 + 40, &mut b[..4]), Err(SimFlashError::Ecc));
+    assert_eq!(
+        f.read(4096 + 16, &mut b),
+        Err(SimFlashError::Ecc),
+        "a read across it"
+    );
+    assert_eq!(f.write(4096 + 32, &[0; 32]), Err(SimFlashError::NotErased));
+    assert_eq!(f.ecc_faults(), 2);
+    f.read(0, &mut b).unwrap();
+    f.erase(4096, 8192).unwrap();
+    f.read(4096 + 32, &mut b).unwrap();
+    assert_eq!(b, [0xFF; 32]);
+    // a program torn by a cut leaves its word torn
+    f.cut_power_at(0);
+    f.tear(true, 3);
+    assert_eq!(f.write(4096, &[0; 32]), Err(SimFlashError::PowerLost));
+    f.restore_power();
+    assert_eq!(f.torn_words(), 1);
+    assert_eq!(f.read(4096, &mut b), Err(SimFlashError::Ecc));
+    // without ECC a torn word reads as whatever bits it holds
+    let mut plain = Flash::new(1);
+    plain.tear_word(0);
+    plain.read(0, &mut b).unwrap();
+}
