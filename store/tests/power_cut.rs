@@ -82,6 +82,19 @@ fn every_cut(
     (steps, out)
 }
 
+/// Runs `cuts` (boots that met an ECC fault) on a store without ECC: none.
+fn no_fault(cuts: impl Fn(trn_store::FlashStore<Flash>) -> u32) {
+    assert_eq!(cuts(store()), 0, "no ECC, no fault");
+}
+
+/// Runs `cuts` on a store with ECC: some cut left a torn word that a boot met.
+fn faults_met(cuts: impl Fn(trn_store::FlashStore<Flash>) -> u32) {
+    assert!(
+        cuts(store_ecc()) > 0,
+        "some cut left a torn word the boot met"
+    );
+}
+
 /// Saves `ctrl`; false when the flash lost power.
 fn saves(ctrl: &Controller) -> impl Fn(&mut trn_store::FlashStore<Flash>) -> bool + '_ {
     move |s| save(s, ctrl).is_ok()
@@ -111,15 +124,13 @@ fn power_cut_at_every_step_of_the_first_save_after_one_copy() {
 
 #[test]
 fn power_cut_at_every_step_with_torn_words_and_pages_when_both_slots_hold_copies() {
-    let out = both_slots_hold_copies(store());
-    assert_eq!(out.faulted, 0, "no ECC, no fault");
+    no_fault(|s| both_slots_hold_copies(s).faulted);
 }
 
 /// The same with ECC: each torn word a fault to read (the STM32H7), never data.
 #[test]
 fn power_cut_at_every_step_with_ecc_faults_when_both_slots_hold_copies() {
-    let out = both_slots_hold_copies(store_ecc());
-    assert!(out.faulted > 0, "some cut left a torn word the boot met");
+    faults_met(|s| both_slots_hold_copies(s).faulted);
 }
 
 /// A save into a store holding two copies, cut at every step with torn words and pages.
@@ -144,15 +155,13 @@ fn both_slots_hold_copies(mut s: trn_store::FlashStore<Flash>) -> Outcomes {
 /// new ones.
 #[test]
 fn power_cut_at_every_step_of_staging_and_applying_an_image() {
-    let out = staging(store());
-    assert_eq!(out.faulted, 0, "no ECC, no fault");
+    no_fault(|s| staging(s).faulted);
 }
 
 /// The same with ECC.
 #[test]
 fn power_cut_at_every_step_of_staging_with_ecc_faults() {
-    let out = staging(store_ecc());
-    assert!(out.faulted > 0, "some cut left a torn word the boot met");
+    faults_met(|s| staging(s).faulted);
 }
 
 /// Stages and applies an image into a store holding one copy, cut at every step (torn).
@@ -192,15 +201,13 @@ fn staging(mut s: trn_store::FlashStore<Flash>) -> Outcomes {
 /// Erasing the stored copies, cut at every step: the copy or nothing, never torn tables.
 #[test]
 fn power_cut_while_erasing_leaves_the_copy_or_nothing() {
-    let faulted = erase_cut_at_every_step(store());
-    assert_eq!(faulted, 0, "no ECC, no fault");
+    no_fault(erase_cut_at_every_step);
 }
 
 /// The same with ECC: a header or page left torn by the cut is refused, never read.
 #[test]
 fn power_cut_while_erasing_with_ecc_faults_leaves_the_copy_or_nothing() {
-    let faulted = erase_cut_at_every_step(store_ecc());
-    assert!(faulted > 0, "some cut left a torn word the boot met");
+    faults_met(erase_cut_at_every_step);
 }
 
 /// Erases a store holding one copy with power lost at each step, boots after each cut:
@@ -249,15 +256,13 @@ fn erase_cut_at_every_step(mut s: trn_store::FlashStore<Flash>) -> u32 {
 /// trial began) and resumed, cut at every step: the previous tables or the new ones.
 #[test]
 fn power_cut_at_every_step_of_a_resumed_save_with_background_erases() {
-    let out = resumed_save(store());
-    assert_eq!(out.faulted, 0, "no ECC, no fault");
+    no_fault(|s| resumed_save(s).faulted);
 }
 
 /// The same with ECC.
 #[test]
 fn power_cut_at_every_step_of_a_resumed_save_with_ecc_faults() {
-    let out = resumed_save(store_ecc());
-    assert!(out.faulted > 0, "some cut left a torn word the boot met");
+    faults_met(|s| resumed_save(s).faulted);
 }
 
 /// A save cancelled and resumed (background erases) into a store holding one copy, cut at

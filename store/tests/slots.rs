@@ -28,6 +28,13 @@ fn restored(
     (c, r)
 }
 
+/// The flash of `s` after saving `old`, then `new` (sequence numbers 1 and 2).
+fn two_copies(mut s: FlashStore<Flash>, old: &Controller, new: &Controller) -> Flash {
+    save(&mut s, old).unwrap();
+    save(&mut s, new).unwrap();
+    s.into_flash()
+}
+
 #[test]
 fn the_newest_copy_boots_and_saves_alternate_slots() {
     let (a, b, c) = (learned(1, 1), learned(2, 2), learned(3, 3));
@@ -58,10 +65,7 @@ fn the_newest_copy_boots_and_saves_alternate_slots() {
 fn a_bit_flip_in_the_newest_copy_falls_back_to_the_previous_one() {
     let (old, new) = (learned(1, 2), learned(2, 3));
     for (what, at) in [("image", 5000usize), ("header", 9)] {
-        let mut s = store();
-        save(&mut s, &old).unwrap();
-        save(&mut s, &new).unwrap();
-        let mut f = s.into_flash();
+        let mut f = two_copies(store(), &old, &new);
         f.memory_mut()[slot_at(slot_of(2)) + at] ^= 0x04;
         let mut s = reboot(f);
         let (got, r) = restored(&mut s);
@@ -379,10 +383,7 @@ fn background_erases_take_no_time_of_a_step() {
 fn a_torn_word_with_ecc_is_a_damaged_copy_reported_and_mended_by_the_next_save() {
     let (old, new) = (learned(1, 2), learned(2, 3));
     for (what, at) in [("header", 0usize), ("image", 90_000)] {
-        let mut s = store_ecc();
-        save(&mut s, &old).unwrap();
-        save(&mut s, &new).unwrap();
-        let mut f = s.into_flash();
+        let mut f = two_copies(store_ecc(), &old, &new);
         f.tear_word((slot_at(slot_of(2)) + at) as u32);
         assert_eq!(f.torn_words(), 1);
         let mut s = reboot(f);
@@ -405,10 +406,7 @@ fn a_torn_word_with_ecc_is_a_damaged_copy_reported_and_mended_by_the_next_save()
         assert_eq!(s.unreadable_slots(), 0);
     }
     // both headers torn: nothing restored (a typed error, not a flash error), a save works
-    let mut s = store_ecc();
-    save(&mut s, &old).unwrap();
-    save(&mut s, &new).unwrap();
-    let mut f = s.into_flash();
+    let mut f = two_copies(store_ecc(), &old, &new);
     f.tear_word(slot_at(0) as u32 + 32);
     f.tear_word(slot_at(1) as u32);
     let mut s = reboot(f);
