@@ -20,6 +20,17 @@ pub struct NodeConfig {
     /// Learning steps between two saves to the stored copy
     /// (`trn_store::policy::steps_between_saves` of the part); `u32::MAX`: never by steps.
     pub save_every_steps: u32,
+    /// How long a trial's start may wait for a save in progress to end (ms): a save writes
+    /// the tables only while no trial runs, so a target that comes while one runs waits for
+    /// it (the node serving heartbeats and the bus meanwhile) up to this long, and then
+    /// starts, abandoning the save's writing for after the trial (its erases are kept).
+    /// Below the runner's give-up of a trial start that shows no sign (13 x 300 ms on
+    /// SocketCAN): 3,000.
+    pub save_hold_ms: u32,
+    /// Learning steps before a save by steps is due at which its erases begin (they run
+    /// during the trials, the tables are written once the save is due): 1, room for a
+    /// 128 KiB sector's erase of up to 2.2 s in each of two trials.
+    pub save_lead_steps: u32,
     /// The protocol version the node speaks (SPEC.md, "Versions"): [`ProtocolVersion::V4`];
     /// [`ProtocolVersion::V3`] makes it a version-3 controller, for testing runners against
     /// one: the kinds, error codes and point status that version 4 added are unknown to it
@@ -41,6 +52,8 @@ impl NodeConfig {
         nonce_window_ms: 2000,
         allow_unguarded_reset: false,
         save_every_steps: u32::MAX,
+        save_hold_ms: 3000,
+        save_lead_steps: 1,
         protocol: ProtocolVersion::V4,
     };
 

@@ -35,6 +35,15 @@ struct PendingGrasp {
     v: Option<[f32; 8]>,
 }
 
+/// A trial's start that waits for a save to end (`NodeConfig::save_hold_ms`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Deferred {
+    trial: u32,
+    task: Task,
+    fine: FineMoves,
+    since_ms: u32,
+}
+
 /// Capacity of the cache of a trial's final messages (two reports, a gripper command, or an
 /// error and the abort).
 const FINAL: usize = 4;
@@ -71,6 +80,8 @@ pub struct ControllerNode {
     pub(crate) guard: Guard,
     /// The tables' provenance, store and transfers.
     pub(crate) tables: TableState,
+    /// A trial's start waiting for the save in progress.
+    deferred: Option<Deferred>,
     pub(crate) stats: NodeStats,
 }
 
@@ -110,6 +121,7 @@ impl ControllerNode {
             last_final: heapless::Vec::new(),
             guard: Guard::new(),
             tables: TableState::new(),
+            deferred: None,
             stats: NodeStats {
                 trials: 0,
                 aborted: 0,
@@ -182,7 +194,46 @@ impl ControllerNode {
             }
         }
         self.poll_tables(ctrl, out);
+        if let Some(d) = self.deferred {
+            let held = now_ms.wrapping_sub(d.since_ms) < self.cfg.save_hold_ms;
+            if !self.tables_saving() || !held {
+                // the start finds the save over or its hold past, and begins
+                self.start(ctrl, d.trial, d.task, d.fine, now_ms, out);
+            }
+        }
         self.speak_own_version(out);
+    }
+
+    /// True (and kept) when the start of `trial` must wait for the save in progress: a save
+    /// writes the tables only between trials. A repeat of the start waiting keeps the first
+    /// (its supervision, its time).
+    pub(crate) fn defers(&mut self, trial: u32, task: Task, fine: FineMoves, now_ms: u32) -> bool {
+        if !self.tables_saving() {
+            self.deferred = None;
+            return false;
+        }
+        match self.deferred {
+            Some(d) if d.trial == trial => {}
+            _ => {
+                self.deferred = Some(Deferred {
+                    trial,
+                    task,
+                    fine,
+                    since_ms: now_ms,
+                })
+            }
+        }
+        let d = self.deferred.expect("kept above");
+        if now_ms.wrapping_sub(d.since_ms) >= self.cfg.save_hold_ms {
+            self.deferred = None;
+            return false;
+        }
+        true
+    }
+
+    /// True while a trial's start waits for a save.
+    pub fn trial_deferred(&self) -> bool {
+        self.deferred.is_some()
     }
 
     /// The `now_ms` at which the node next needs a turn if no frame arrives: the earlier of
@@ -379,6 +430,8 @@ impl ControllerNode {
                 self.start(ctrl, t.trial, task, fine_moves(t.fine_moves), now_ms, out);
             }
             (NodeId::Controller, Message::ModeChange(m)) => {
+                // a start waiting for a save belongs to the mode it came in
+                self.deferred = None;
                 self.entering_mode(m.mode);
                 self.mode = m.mode;
                 self.idle_requested = m.mode == Mode::Idle;

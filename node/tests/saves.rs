@@ -6,9 +6,7 @@ mod common;
 use common::*;
 use trn_controller::persist::TableStore;
 use trn_node::{codes, ControllerNode, NodeConfig, Outbox};
-use trn_protocol::{
-    Message, Mode, ModeChange, Stage1Target, StoreCommand, StoreOp, TablesEvent, TablesStatus,
-};
+use trn_protocol::{Message, Mode, ModeChange, StoreCommand, StoreOp, TablesEvent, TablesStatus};
 
 fn statuses(out: &[trn_protocol::Envelope]) -> Vec<TablesStatus> {
     out.iter()
@@ -40,13 +38,7 @@ fn poll_until(
 
 /// Runs a learning stage-1 trial to its end with the plant answering.
 fn learning_trial(n: &mut ControllerNode, b: &mut Board, trial: u32, now: &mut u32) {
-    let t = Stage1Target {
-        trial,
-        learn: true,
-        grasp: false,
-        fine_moves: 1,
-        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
-    };
+    let t = learning_target(trial);
     let mut plant = Plant::new();
     let mut out = send(n, b, t.into(), *now);
     for _ in 0..20 {
@@ -119,7 +111,7 @@ fn the_boot_restore_is_announced_and_saves_follow_the_policy() {
 }
 
 #[test]
-fn every_n_learning_steps_a_save_between_trials_and_a_learning_trial_abandons_one() {
+fn every_n_learning_steps_a_save_between_trials_and_a_learning_trial_waits_for_it() {
     let mut b = Board {
         ctrl: learned(52, 0),
         store: store(),
@@ -140,23 +132,61 @@ fn every_n_learning_steps_a_save_between_trials_and_a_learning_trial_abandons_on
         now,
     );
     learning_trial(&mut n, &mut b, 1, &mut now);
-    // one step: not yet
+    // one step: not yet due, its erases begin (a step ahead) but nothing is written
     assert!(poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 5).is_none());
     learning_trial(&mut n, &mut b, 2, &mut now);
-    // two: a save begins between trials; a trial that learns starts before it ends
+    // two: due between trials; the next trial's start waits for the save
     let mut out = Outbox::new();
     n.poll(&mut b, now + 10, &mut out);
-    assert!(b.store.saving(), "a save began");
-    learning_trial(&mut n, &mut b, 3, &mut now);
-    assert!(
-        b.store.stored().is_none(),
-        "the save was abandoned when the trial began"
-    );
+    assert!(b.store.saving(), "a save runs");
+    let t = learning_target(3);
+    let out = send(&mut n, &mut b, t.into(), now);
+    assert!(out.is_empty() && n.trial_deferred() && n.trial().is_none());
     let s = poll_until(&mut n, &mut b, &mut now, TablesEvent::Saved, 200).unwrap();
-    assert_eq!(s.steps1, 3, "saved again, after the trial, with its step");
+    assert_eq!(s.steps1, 2, "saved with the steps it was due at");
+    assert_eq!(n.trial(), Some(3), "the trial started once the save ended");
     let mut back = learned(0, 0);
     b.store.restore(&mut back, None).unwrap();
-    assert!(same(&back, &b.ctrl));
+    assert_eq!(back.stage1().learning_step(), 2);
+}
+
+/// A save that does not end within `save_hold_ms` of a trial's start lets the trial begin:
+/// its writing is abandoned (its erases kept) and it ends after the trial.
+#[test]
+fn a_start_waits_for_a_save_no_longer_than_the_hold() {
+    let mut b = Board {
+        ctrl: learned(54, 0),
+        store: store().with_step_bytes(256),
+    };
+    let mut n = ControllerNode::new(NodeConfig {
+        save_every_steps: 1,
+        save_hold_ms: 50,
+        ..NodeConfig::DEFAULT
+    });
+    let mut now = 0;
+    send(&mut n, &mut b, session(3, false).into(), now);
+    let training = ModeChange {
+        mode: Mode::Training,
+    };
+    send(&mut n, &mut b, training.into(), now);
+    learning_trial(&mut n, &mut b, 1, &mut now);
+    let mut out = Outbox::new();
+    n.poll(&mut b, now, &mut out);
+    assert!(b.store.saving());
+    let t = learning_target(2);
+    assert!(send(&mut n, &mut b, t.into(), now).is_empty());
+    // a repeat of the start while it waits changes nothing
+    assert!(send(&mut n, &mut b, t.into(), now + 20).is_empty());
+    out.clear();
+    n.poll(&mut b, now + 49, &mut out);
+    assert_eq!(n.trial(), None, "still waiting");
+    out.clear();
+    n.poll(&mut b, now + 50, &mut out);
+    assert_eq!(n.trial(), Some(2), "the hold is over: the trial runs");
+    assert!(
+        !b.store.saving(),
+        "the save's writing waits for the trial's end"
+    );
 }
 
 #[test]

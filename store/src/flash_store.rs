@@ -28,6 +28,16 @@ fn code<E: NorFlashError>(e: E) -> u8 {
     }
 }
 
+/// True for a read the flash refused for the data it holds (`NorFlashErrorKind::Other`: an
+/// ECC error, a torn word on a part with ECC), not for the request (alignment, bounds): what
+/// it was reading is damaged, as a CRC that fails.
+fn unreadable<E: NorFlashError>(e: &E) -> bool {
+    !matches!(
+        e.kind(),
+        NorFlashErrorKind::NotAligned | NorFlashErrorKind::OutOfBounds
+    )
+}
+
 /// Why a region cannot hold the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LayoutError {
@@ -69,7 +79,8 @@ pub enum RestoreError {
     Image(CkptError),
     /// A trial is running.
     Busy,
-    /// The flash refused a read.
+    /// The flash refused a read request (alignment, bounds: a layout this flash does not
+    /// have). A read refused for the data (an ECC error) makes that copy damaged instead.
     Flash(u8),
 }
 
@@ -80,13 +91,15 @@ type Newest = [Option<(u8, SlotHeader)>; 2];
 #[derive(Debug, Clone)]
 enum Job {
     None,
-    /// A save into `slot`: erasing, then programming from the cursor, then the read-back
-    /// and the commit.
+    /// A save into `slot`: erasing the slot's pages (the tables are not read), then, while
+    /// no trial runs, programming from the cursor (made at the first program step), then the
+    /// read-back and the commit.
     Save {
         slot: u8,
         sequence: u32,
-        cursor: ImageCursor,
-        erased: u32,
+        provenance: Provenance,
+        len: u32,
+        cursor: Option<ImageCursor>,
         programmed: u32,
     },
     /// An incoming image staged into `slot`; `pending` holds the bytes of a write unit not
@@ -102,14 +115,67 @@ enum Job {
     },
 }
 
+/// A flash that erases a page in the background: the erase is started, the caller goes on
+/// with its work (on a dual-bank part, running from the other bank), and polls until the
+/// erase is done. A [`FlashStore`] made [`FlashStore::with_background_erase`] starts each
+/// erase of a save in one step and polls it in the following ones, so no step waits for an
+/// erase.
+pub trait BackgroundErase: NorFlash {
+    /// Starts erasing the page (`ERASE_SIZE` bytes) at `offset` and returns at once.
+    fn erase_start(&mut self, offset: u32) -> Result<(), Self::Error>;
+    /// True once the erase started last is complete (its error if it failed); true when
+    /// none was started.
+    fn erase_done(&mut self) -> Result<bool, Self::Error>;
+    /// Waits until the erase started last is complete (its error if it failed).
+    fn erase_wait(&mut self) -> Result<(), Self::Error>;
+}
+
+/// The operations of a [`BackgroundErase`] flash, kept by a store that uses them.
+struct Background<F: NorFlash> {
+    start: fn(&mut F, u32) -> Result<(), F::Error>,
+    done: fn(&mut F) -> Result<bool, F::Error>,
+    wait: fn(&mut F) -> Result<(), F::Error>,
+}
+
+impl<F: NorFlash> Clone for Background<F> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<F: NorFlash> Copy for Background<F> {}
+
+impl<F: NorFlash> core::fmt::Debug for Background<F> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("Background")
+    }
+}
+
+/// The erase work of a save kept across a cancel: the slot and sequence number it goes to,
+/// the pages of the slot known erased and not programmed since (`from..to`, offsets in the
+/// slot), and the page whose erase is under way. A save begun again resumes from it instead
+/// of erasing those pages again; a commit, a staged image or an erase of the store drops it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Prepared {
+    slot: u8,
+    sequence: u32,
+    from: u32,
+    to: u32,
+    pending: Option<u32>,
+}
+
 /// The learned tables in two slots of a NorFlash region (see the crate documentation).
 #[derive(Debug)]
-pub struct FlashStore<F> {
+pub struct FlashStore<F: NorFlash> {
     flash: F,
     base: u32,
     slot_size: u32,
     step_bytes: u32,
     job: Job,
+    prepared: Option<Prepared>,
+    background: Option<Background<F>>,
+    /// Bit `s` set: slot `s`'s header could not be read at its last read (an ECC error).
+    unreadable: u8,
 }
 
 /// A slot's image as a checkpoint source.
@@ -204,11 +270,31 @@ impl<F: NorFlash> FlashStore<F> {
             slot_size,
             step_bytes: 4096,
             job: Job::None,
+            prepared: None,
+            background: None,
+            unreadable: 0,
         })
     }
 
+    /// Makes each erase of a save a background erase: one save step starts it, the following
+    /// steps poll it (returning at once while it runs), so a step never waits for an erase.
+    /// Other operations that meet an erase under way wait for it; staging an image and
+    /// [`TableStore::erase`] still wait for each of their erases.
+    pub fn with_background_erase(mut self) -> Self
+    where
+        F: BackgroundErase,
+    {
+        self.background = Some(Background {
+            start: F::erase_start,
+            done: F::erase_done,
+            wait: F::erase_wait,
+        });
+        self
+    }
+
     /// Sets how many bytes one save step programs (4 KiB by default): the longest a step
-    /// keeps the node's loop from the bus is one erase or this many bytes programmed.
+    /// keeps the node's loop from the bus is this many bytes programmed, or one erase unless
+    /// the erases run in the background ([`FlashStore::with_background_erase`]).
     pub fn with_step_bytes(mut self, bytes: u32) -> Self {
         self.step_bytes = bytes.max(PROGRAM as u32);
         self
@@ -224,6 +310,85 @@ impl<F: NorFlash> FlashStore<F> {
         self.flash
     }
 
+    /// Waits for an erase under way (a save's, left running by a cancel) before the flash is
+    /// read or written otherwise; the page then counts as erased.
+    fn settle(&mut self) -> Result<(), F::Error> {
+        let Some(p) = self.prepared.as_mut() else {
+            return Ok(());
+        };
+        let Some(page) = p.pending.take() else {
+            return Ok(());
+        };
+        if let Some(b) = self.background {
+            if let Err(e) = (b.wait)(&mut self.flash) {
+                self.prepared = None;
+                return Err(e);
+            }
+        }
+        self.mark_erased(page);
+        Ok(())
+    }
+
+    /// Page `page` (an offset in the prepared slot) is erased.
+    fn mark_erased(&mut self, page: u32) {
+        let e = F::ERASE_SIZE as u32;
+        let Some(p) = self.prepared.as_mut() else {
+            return;
+        };
+        if p.from == p.to || (page + e != p.from && page != p.to) {
+            (p.from, p.to) = (page, page + e);
+        } else if page + e == p.from {
+            p.from = page;
+        } else {
+            p.to = page + e;
+        }
+    }
+
+    /// The next page of the prepared slot to erase so that `0..need` is erased, if any:
+    /// below the erased run first, then above it.
+    fn next_to_erase(&self, need: u32) -> Option<u32> {
+        let e = F::ERASE_SIZE as u32;
+        let p = self.prepared?;
+        if p.from == p.to {
+            Some(0)
+        } else if p.from > 0 {
+            Some(p.from - e)
+        } else if p.to < need {
+            Some(p.to)
+        } else {
+            None
+        }
+    }
+
+    /// Bytes up to `end` (an offset in the prepared slot) were programmed: their pages are
+    /// no longer erased.
+    fn mark_programmed(&mut self, end: u32) {
+        let e = F::ERASE_SIZE as u32;
+        if let Some(p) = self.prepared.as_mut() {
+            p.from = p.from.max(end.div_ceil(e) * e);
+            if p.from >= p.to {
+                (p.from, p.to) = (0, 0);
+            }
+        }
+    }
+
+    /// Erases of the save in progress still to make (pages of its slot not known erased),
+    /// the erase under way included; 0 when no save runs.
+    pub fn erases_left(&self) -> u32 {
+        let Job::Save { slot, len, .. } = self.job else {
+            return 0;
+        };
+        let e = F::ERASE_SIZE as u32;
+        let pages = (Self::IMAGE_AT + len).div_ceil(e);
+        match self.prepared {
+            Some(p) if p.slot == slot => {
+                let known = (p.to.min(pages * e) - p.from.min(pages * e)) / e;
+                pages - known
+            }
+            _ => pages,
+        }
+    }
+
     fn slot_at(&self, slot: u8) -> u32 {
         self.base + slot as u32 * self.slot_size
     }
@@ -232,11 +397,28 @@ impl<F: NorFlash> FlashStore<F> {
         self.slot_size - Self::IMAGE_AT
     }
 
+    /// The slots whose header the flash refused to read at its last read (bit `s` for slot
+    /// `s`): a word torn by a power cut on a part with ECC. Such a slot holds no copy; the
+    /// next save or staged image goes to it and its erase mends the flash.
+    pub fn unreadable_slots(&self) -> u8 {
+        self.unreadable
+    }
+
+    /// Slot `slot`'s header; an unreadable one (an ECC error) is [`Decoded::Invalid`].
     fn header(&mut self, slot: u8) -> Result<Decoded, F::Error> {
+        self.settle()?;
         let mut b = [0u8; HEADER_LEN];
         let at = self.slot_at(slot);
-        read_unaligned(&mut self.flash, at, &mut b)?;
-        Ok(SlotHeader::decode(&b))
+        let read = read_unaligned(&mut self.flash, at, &mut b);
+        self.unreadable &= !(1 << slot);
+        match read {
+            Ok(()) => Ok(SlotHeader::decode(&b)),
+            Err(e) if unreadable(&e) => {
+                self.unreadable |= 1 << slot;
+                Ok(Decoded::Invalid)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The valid headers of both slots, newest first.
@@ -268,19 +450,21 @@ impl<F: NorFlash> FlashStore<F> {
     }
 
     /// True when the image of a valid header is intact: the CRC it names is its last four
-    /// bytes and the image checks.
+    /// bytes and the image checks (an image the flash refuses to read is not).
     fn intact(&mut self, slot: u8, h: &SlotHeader) -> Result<bool, F::Error> {
         if h.len < 8 || h.len > self.capacity() {
             return Ok(false);
         }
         let mut img = self.image(slot, h.len);
         let mut crc = [0u8; 4];
-        img.read(h.len as usize - 4, &mut crc)?;
-        if u32::from_le_bytes(crc) != h.image_crc {
-            return Ok(false);
-        }
-        match checkpoint::verify_from(&mut img) {
-            Ok(_) => Ok(true),
+        let verdict = match img.read(h.len as usize - 4, &mut crc) {
+            Ok(()) if u32::from_le_bytes(crc) != h.image_crc => return Ok(false),
+            Ok(()) => checkpoint::verify_from(&mut img).map(|_| true),
+            Err(e) => Err(SourceError::Read(e)),
+        };
+        match verdict {
+            Ok(v) => Ok(v),
+            Err(SourceError::Read(e)) if unreadable(&e) => Ok(false),
             Err(SourceError::Read(e)) => Err(e),
             Err(SourceError::Checkpoint(e)) => Ok(!is_damage(&e)),
         }
@@ -302,8 +486,8 @@ impl<F: NorFlash> FlashStore<F> {
 
     /// Restores the newest intact copy into `ctrl` (at boot). With `expected`, a copy learned
     /// under another configuration fingerprint is refused. A damaged newest copy falls back
-    /// to the previous one; an intact one this build does not take is refused, never
-    /// replaced by an older one.
+    /// to the previous one (so does a copy the flash refuses to read: an ECC error); an
+    /// intact one this build does not take is refused, never replaced by an older one.
     pub fn restore(
         &mut self,
         ctrl: &mut Controller,
@@ -336,12 +520,14 @@ impl<F: NorFlash> FlashStore<F> {
             }
             let mut img = self.image(slot, h.len);
             let mut crc = [0u8; 4];
-            img.read(h.len as usize - 4, &mut crc).map_err(flash)?;
-            if u32::from_le_bytes(crc) != h.image_crc {
-                continue;
-            }
-            match checkpoint::restore_from(ctrl, &mut img) {
+            let restored = match img.read(h.len as usize - 4, &mut crc) {
+                Ok(()) if u32::from_le_bytes(crc) != h.image_crc => continue,
+                Ok(()) => checkpoint::restore_from(ctrl, &mut img),
+                Err(e) => Err(SourceError::Read(e)),
+            };
+            match restored {
                 Ok(header) => return Ok(StoredCopy::of(h.sequence, &header, h.len)),
+                Err(SourceError::Read(e)) if unreadable(&e) => continue,
                 Err(SourceError::Read(e)) => return Err(flash(e)),
                 Err(SourceError::Checkpoint(e)) if is_damage(&e) => continue,
                 Err(SourceError::Checkpoint(e)) => return Err(RestoreError::Image(e)),
@@ -357,9 +543,20 @@ impl<F: NorFlash> FlashStore<F> {
             return Ok(false);
         }
         let at = self.slot_at(slot) + *erased;
-        self.flash.erase(at, at + F::ERASE_SIZE as u32)?;
+        self.erase_page(at)?;
         *erased += F::ERASE_SIZE as u32;
         Ok(true)
+    }
+
+    /// Erases the page at `at` and waits until it is erased.
+    fn erase_page(&mut self, at: u32) -> Result<(), F::Error> {
+        match self.background {
+            Some(b) => {
+                (b.start)(&mut self.flash, at)?;
+                (b.wait)(&mut self.flash)
+            }
+            None => self.flash.erase(at, at + F::ERASE_SIZE as u32),
+        }
     }
 
     /// Programs `bytes` (padded with 0xFF to whole write units) at `offset` of the slot's
@@ -375,6 +572,14 @@ impl<F: NorFlash> FlashStore<F> {
         let padded = bytes.len().div_ceil(unit) * unit;
         let end = Self::IMAGE_AT + offset + padded as u32;
         while self.erase_towards(slot, erased, end)? {}
+        self.write_image(slot, offset, bytes)
+    }
+
+    /// Programs `bytes` (padded with 0xFF to whole write units) at `offset` of the slot's
+    /// image, which is erased.
+    fn write_image(&mut self, slot: u8, offset: u32, bytes: &[u8]) -> Result<(), F::Error> {
+        let unit = F::WRITE_SIZE;
+        let padded = bytes.len().div_ceil(unit) * unit;
         let mut buf = [0xFFu8; PROGRAM];
         buf[..bytes.len()].copy_from_slice(bytes);
         let at = self.slot_at(slot) + Self::IMAGE_AT + offset;
@@ -422,48 +627,110 @@ impl<F: NorFlash> FlashStore<F> {
         let Job::Save {
             slot,
             sequence,
+            provenance,
+            len,
             mut cursor,
-            mut erased,
             mut programmed,
         } = core::mem::replace(&mut self.job, Job::None)
         else {
             return Err(SaveError::NotStarted);
         };
         let flash = |e: F::Error| SaveError::Flash(code(e));
-        let len = cursor.len() as u32;
-        // erase the slot's pages from its first (the header's) on, one a step; then program
-        // up to `step_bytes` a step
-        let mut progressed = self
-            .erase_towards(slot, &mut erased, Self::IMAGE_AT + len)
-            .map_err(flash)?;
-        let mut budget = if progressed { 0 } else { self.step_bytes };
-        while budget > 0 && !cursor.is_done() {
+        let keep = |cursor, programmed| Job::Save {
+            slot,
+            sequence,
+            provenance,
+            len,
+            cursor,
+            programmed,
+        };
+        let e = F::ERASE_SIZE as u32;
+        // the erase under way: polled, the step returns while it runs
+        let pending = self.prepared.and_then(|p| p.pending);
+        if let Some(page) = pending {
+            let done = match self.background {
+                Some(b) => (b.done)(&mut self.flash),
+                None => Ok(true),
+            };
+            match done {
+                Ok(false) => {
+                    self.job = keep(cursor, programmed);
+                    return Ok(None);
+                }
+                Ok(true) => {
+                    if let Some(p) = self.prepared.as_mut() {
+                        p.pending = None;
+                    }
+                    self.mark_erased(page);
+                }
+                Err(err) => {
+                    self.prepared = None;
+                    return Err(flash(err));
+                }
+            }
+        }
+        // the slot's pages first, one erase a step, whether or not a trial runs (the tables
+        // are not read); none once the image is being programmed
+        let next = match cursor {
+            None => self.next_to_erase(Self::IMAGE_AT + len),
+            Some(_) => None,
+        };
+        if let Some(page) = next {
+            let at = self.slot_at(slot) + page;
+            let started = match self.background {
+                Some(b) => (b.start)(&mut self.flash, at).map(|_| false),
+                None => self.flash.erase(at, at + e).map(|_| true),
+            };
+            match started {
+                Ok(done) => {
+                    if done {
+                        self.mark_erased(page);
+                    } else if let Some(p) = self.prepared.as_mut() {
+                        p.pending = Some(page);
+                    }
+                }
+                Err(err) => {
+                    self.prepared = None;
+                    return Err(flash(err));
+                }
+            }
+            self.job = keep(cursor, programmed);
+            return Ok(None);
+        }
+        // then the image, never while a trial runs: the tables may change under it
+        if ctrl.busy() {
+            self.job = keep(cursor, programmed);
+            return Ok(None);
+        }
+        let cur = cursor.get_or_insert_with(|| ImageCursor::new(ctrl, provenance));
+        if cur.len() as u32 != len {
+            return Err(SaveError::Changed);
+        }
+        let mut budget = self.step_bytes;
+        let mut progressed = false;
+        while budget > 0 && !cur.is_done() {
             let mut piece = [0u8; PROGRAM];
             // the cursor's only refusal: the tables changed since the save began
-            let n = cursor
-                .read(ctrl, &mut piece)
-                .map_err(|_| SaveError::Changed)?;
-            self.program(slot, &mut erased, programmed, &piece[..n])
+            let n = cur.read(ctrl, &mut piece).map_err(|_| SaveError::Changed)?;
+            let padded = n.div_ceil(F::WRITE_SIZE) * F::WRITE_SIZE;
+            self.mark_programmed(Self::IMAGE_AT + programmed + padded as u32);
+            self.write_image(slot, programmed, &piece[..n])
                 .map_err(flash)?;
             programmed += n as u32;
             budget = budget.saturating_sub(PROGRAM as u32);
             progressed = true;
         }
         if progressed {
-            self.job = Job::Save {
-                slot,
-                sequence,
-                cursor,
-                erased,
-                programmed,
-            };
+            self.job = keep(cursor, programmed);
             return Ok(None);
         }
+        let expected = *cur.header();
         let (header, crc) = self.read_back(slot, len)?;
-        if header != *cursor.header() {
+        if header != expected {
             return Err(SaveError::Flash(READ_BACK_DIFFERS));
         }
         let h = Self::header_for(sequence, &header, len, crc);
+        self.prepared = None;
         self.commit(slot, &h).map_err(flash)?;
         Ok(Some(StoredCopy::of(sequence, &header, len)))
     }
@@ -591,18 +858,35 @@ impl<F: NorFlash> TableStore for FlashStore<F> {
         })
     }
 
+    /// Starts a save; a save cancelled before (nothing committed, staged or erased since)
+    /// is resumed: its slot, its sequence number and the pages it erased are kept, its erase
+    /// under way goes on.
     fn save_begin(&mut self, ctrl: &Controller, provenance: Provenance) -> Result<(), SaveError> {
         self.job = Job::None;
-        let cursor = ImageCursor::new(ctrl, provenance);
-        if cursor.len() as u32 > self.capacity() {
+        let len = ImageCursor::new(ctrl, provenance).len() as u32;
+        if len > self.capacity() {
             return Err(SaveError::TooLarge);
         }
-        let (slot, sequence) = self.next_slot().map_err(|e| SaveError::Flash(code(e)))?;
+        let (slot, sequence) = match self.prepared {
+            Some(p) => (p.slot, p.sequence),
+            None => {
+                let (slot, sequence) = self.next_slot().map_err(|e| SaveError::Flash(code(e)))?;
+                self.prepared = Some(Prepared {
+                    slot,
+                    sequence,
+                    from: 0,
+                    to: 0,
+                    pending: None,
+                });
+                (slot, sequence)
+            }
+        };
         self.job = Job::Save {
             slot,
             sequence,
-            cursor,
-            erased: 0,
+            provenance,
+            len,
+            cursor: None,
             programmed: 0,
         };
         Ok(())
@@ -624,6 +908,9 @@ impl<F: NorFlash> TableStore for FlashStore<F> {
 
     fn stage_begin(&mut self, len: u32) -> Result<(), StageError> {
         self.job = Job::None;
+        let settled = self.settle();
+        self.prepared = None;
+        settled.map_err(|e| StageError::Flash(code(e)))?;
         if len < 8 || len > self.capacity() || len as usize > checkpoint::MAX_SIZE {
             return Err(StageError::TooLarge);
         }
@@ -660,6 +947,9 @@ impl<F: NorFlash> TableStore for FlashStore<F> {
         self.job = Job::None;
         let page = F::ERASE_SIZE as u32;
         let flash = |e: F::Error| EraseError::Flash(code(e));
+        let settled = self.settle();
+        self.prepared = None;
+        settled.map_err(flash)?;
         // both headers first: from then on neither slot holds a copy
         for slot in 0..2 {
             let at = self.slot_at(slot);

@@ -13,8 +13,15 @@
 //! configuration this build does not take is refused with a typed error, never half used.
 //!
 //! A save is a job of small steps (one erase, or a few KiB programmed) that a node runs
-//! between bus messages ([`trn_controller::persist::TableStore`]); an incoming image is
-//! staged in the same inactive slot and applied only once whole and verified.
+//! between bus messages ([`trn_controller::persist::TableStore`]): first the slot's pages
+//! are erased, one a step, whether or not a trial runs (the tables are not read); then,
+//! only while the controller runs no trial, the image is programmed. On a flash that erases
+//! in the background ([`BackgroundErase`], [`FlashStore::with_background_erase`]) a step
+//! starts an erase and the following ones poll it, so no step waits for an erase. A save
+//! cancelled and begun again resumes: the pages it erased and has not programmed are not
+//! erased again, so each page is erased once a save unless a save is cut after it began to
+//! program ([`FlashStore::erases_left`]). An incoming image is staged in the same inactive
+//! slot and applied only once whole and verified.
 //! [`policy`] derives how often to save from the part's flash endurance; [`RamFlash`] is a
 //! NOR flash in memory (the firmware in QEMU, a host's in-process controller).
 //!
@@ -30,7 +37,7 @@ pub mod ram;
 pub mod sim;
 pub mod slot;
 
-pub use flash_store::{FlashStore, LayoutError, RestoreError};
+pub use flash_store::{BackgroundErase, FlashStore, LayoutError, RestoreError};
 pub use ram::{RamFlash, RamFlashError};
 pub use trn_controller::persist::{
     ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,

@@ -28,6 +28,13 @@ fn restored(
     (c, r)
 }
 
+/// The flash of `s` after saving `old`, then `new` (sequence numbers 1 and 2).
+fn two_copies(mut s: FlashStore<Flash>, old: &Controller, new: &Controller) -> Flash {
+    save(&mut s, old).unwrap();
+    save(&mut s, new).unwrap();
+    s.into_flash()
+}
+
 #[test]
 fn the_newest_copy_boots_and_saves_alternate_slots() {
     let (a, b, c) = (learned(1, 1), learned(2, 2), learned(3, 3));
@@ -58,10 +65,7 @@ fn the_newest_copy_boots_and_saves_alternate_slots() {
 fn a_bit_flip_in_the_newest_copy_falls_back_to_the_previous_one() {
     let (old, new) = (learned(1, 2), learned(2, 3));
     for (what, at) in [("image", 5000usize), ("header", 9)] {
-        let mut s = store();
-        save(&mut s, &old).unwrap();
-        save(&mut s, &new).unwrap();
-        let mut f = s.into_flash();
+        let mut f = two_copies(store(), &old, &new);
         f.memory_mut()[slot_at(slot_of(2)) + at] ^= 0x04;
         let mut s = reboot(f);
         let (got, r) = restored(&mut s);
@@ -301,4 +305,151 @@ fn layouts_that_do_not_fit_are_refused() {
         FlashStore::new(Flash::new(100), 0, need).err(),
         Some(LayoutError::OutOfBounds)
     );
+}
+
+/// A save cancelled while it erases (a trial began) and begun again keeps the pages it
+/// erased: each page of its slot is erased once for the save. One cancelled after it began
+/// programming erases again only the pages it programmed.
+#[test]
+fn a_cancelled_save_resumes_its_erases() {
+    let t = learned(4, 2);
+    let mut s = store();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let pages = s.erases_left() as usize;
+    for _ in 0..pages / 2 {
+        s.save_step(&t).unwrap();
+    }
+    s.save_cancel();
+    assert!(!s.saving());
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    assert_eq!(s.erases_left() as usize, pages - pages / 2);
+    // the rest of the erases, then two steps of programming, then a cancel
+    for _ in 0..pages - pages / 2 + 2 {
+        s.save_step(&t).unwrap();
+    }
+    s.save_cancel();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let again = s.erases_left();
+    assert!(again >= 1 && (again as usize) < pages, "{again} of {pages}");
+    let copy = loop {
+        if let Some(c) = s.save_step(&t).unwrap() {
+            break c;
+        }
+    };
+    assert_eq!(copy.sequence, 1);
+    let counts = s.flash().erase_counts();
+    let erased: u32 = counts.iter().sum();
+    assert_eq!(erased as usize, pages + again as usize, "{counts:?}");
+    assert!(counts.iter().all(|&c| c <= 2));
+    let (got, _) = restored(&mut s);
+    assert!(same_tables(&got, &t));
+}
+
+/// With the erases in the background a save step never waits for one: on the H743's
+/// timing a step that starts or polls an erase takes no time of the caller's, one that
+/// programs takes its flash words' time; the save ends with each sector erased once.
+#[test]
+fn background_erases_take_no_time_of_a_step() {
+    use trn_store::sim::{FlashTiming, H743Flash, SimClock};
+    let t = learned(5, 1);
+    let clock = SimClock::new();
+    let slot = FlashStore::<H743Flash>::slot_size_needed();
+    let flash = H743Flash::new(2 * slot as usize / 131072)
+        .with_timing(clock.clone(), FlashTiming::H743_X32);
+    let mut s = FlashStore::new(flash, 0, slot)
+        .unwrap()
+        .with_background_erase();
+    s.save_begin(&t, Provenance::CUSTOM).unwrap();
+    let mut longest = 0;
+    let copy = loop {
+        let before = clock.now_us();
+        let step = s.save_step(&t).unwrap();
+        longest = longest.max(clock.now_us() - before);
+        if let Some(c) = step {
+            break c;
+        }
+        clock.advance(1_000);
+    };
+    // 4 KiB programmed: 128 flash words of 130 us
+    assert_eq!(longest, 128 * 130, "the longest step (us)");
+    assert_eq!(copy.sequence, 1);
+    assert_eq!(s.flash().erase_counts(), &[1, 1, 0, 0]);
+}
+
+/// With ECC (the STM32H7's), a torn word is a fault to read: a slot whose header or image
+/// holds one is no copy, the other slot's boots, the slot is reported, and the next save
+/// goes into it and mends it.
+#[test]
+fn a_torn_word_with_ecc_is_a_damaged_copy_reported_and_mended_by_the_next_save() {
+    let (old, new) = (learned(1, 2), learned(2, 3));
+    for (what, at) in [("header", 0usize), ("image", 90_000)] {
+        let mut f = two_copies(store_ecc(), &old, &new);
+        f.tear_word((slot_at(slot_of(2)) + at) as u32);
+        assert_eq!(f.torn_words(), 1);
+        let mut s = reboot(f);
+        let (got, r) = restored(&mut s);
+        assert_eq!(r.unwrap().sequence, 1, "{what}: the previous copy");
+        assert!(same_tables(&got, &old), "{what}");
+        assert!(s.flash().ecc_faults() > 0, "{what}: the torn word was met");
+        let reported = if what == "header" { 1 << slot_of(2) } else { 0 };
+        assert_eq!(s.unreadable_slots(), reported, "{what}");
+        let newer = learned(3, 1);
+        save(&mut s, &newer).unwrap();
+        assert_eq!(
+            s.flash().torn_words(),
+            0,
+            "{what}: the save erased the torn word"
+        );
+        let (got, r) = restored(&mut s);
+        r.unwrap();
+        assert!(same_tables(&got, &newer), "{what}");
+        assert_eq!(s.unreadable_slots(), 0);
+    }
+    // both headers torn: nothing restored (a typed error, not a flash error), a save works
+    let mut f = two_copies(store_ecc(), &old, &new);
+    f.tear_word(slot_at(0) as u32 + 32);
+    f.tear_word(slot_at(1) as u32);
+    let mut s = reboot(f);
+    let (got, r) = restored(&mut s);
+    assert_eq!(r, Err(RestoreError::AllCorrupt));
+    assert!(same_tables(&got, &blank()));
+    assert_eq!(s.unreadable_slots(), 0b11);
+    save(&mut s, &new).unwrap();
+    let (got, _) = restored(&mut s);
+    assert!(same_tables(&got, &new));
+}
+
+#[test]
+fn the_simulated_ecc_refuses_a_torn_word_until_its_page_is_erased() {
+    use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
+    use trn_store::sim::SimFlashError;
+    let mut f = Flash::new(2).with_ecc();
+    f.write(4096, &[0x5A; 64]).unwrap();
+    f.tear_word(4096 + 32);
+    let mut b = [0u8; 32];
+    f.read(4096, &mut b).unwrap();
+    assert_eq!(b, [0x5A; 32], "the whole word beside it reads");
+    assert_eq!(f.read(4096 + 40, &mut b[..4]), Err(SimFlashError::Ecc));
+    assert_eq!(
+        f.read(4096 + 16, &mut b),
+        Err(SimFlashError::Ecc),
+        "a read across it"
+    );
+    assert_eq!(f.write(4096 + 32, &[0; 32]), Err(SimFlashError::NotErased));
+    assert_eq!(f.ecc_faults(), 2);
+    f.read(0, &mut b).unwrap();
+    f.erase(4096, 8192).unwrap();
+    f.read(4096 + 32, &mut b).unwrap();
+    assert_eq!(b, [0xFF; 32]);
+    // a program torn by a cut leaves its word torn
+    f.cut_power_at(0);
+    f.tear(true, 3);
+    assert_eq!(f.write(4096, &[0; 32]), Err(SimFlashError::PowerLost));
+    f.restore_power();
+    assert_eq!(f.torn_words(), 1);
+    assert_eq!(f.read(4096, &mut b), Err(SimFlashError::Ecc));
+    // without ECC a torn word reads as whatever bits it holds
+    let mut plain = Flash::new(1);
+    plain.tear_word(0);
+    plain.read(0, &mut b).unwrap();
 }

@@ -1,6 +1,8 @@
 //! The node's tables over the bus and in their store (protocol/SPEC.md 3.5): the status,
-//! saves (on a command, on entering `Mature`, every N learning steps, never during a trial
-//! that learns), erasing the stored copy, chunks of the checkpoint image read out from the
+//! saves (on a command, on entering `Mature`, every N learning steps; a save's steps run in
+//! every turn, trials or not, and its store writes the tables only while the controller runs
+//! no trial: a trial's start waits for a save in progress, up to
+//! `NodeConfig::save_hold_ms`), erasing the stored copy, chunks of the checkpoint image read out from the
 //! live tables, an image written in (staged in the store, verified and applied whole), the
 //! announcement at boot. The node keeps a few dozen bytes of it, never the image.
 
@@ -25,7 +27,7 @@ use write::Write;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Save {
     Idle,
-    /// Due: begins as soon as no learning trial runs.
+    /// Due: begins at the next turn.
     Wanted,
     /// Steps run from `poll`.
     Running,
@@ -44,6 +46,10 @@ pub(crate) struct TableState {
     /// Learning steps (both stages) at the last save or restore.
     steps_at_save: u32,
     save: Save,
+    /// True when the save was asked for (a command, entering `Mature`), not by steps.
+    asked: bool,
+    /// True when the learning steps make a save due (not only its erases).
+    due: bool,
     write: Write,
     /// A status to announce at the next poll (at boot).
     announce: Option<TablesEvent>,
@@ -57,6 +63,8 @@ impl TableState {
             dirty: true,
             steps_at_save: 0,
             save: Save::Idle,
+            asked: false,
+            due: false,
             write: Write::NONE,
             announce: None,
         }
@@ -167,6 +175,7 @@ impl ControllerNode {
                 store.save_cancel();
             }
             self.tables.save = if resave { Save::Wanted } else { Save::Idle };
+            self.tables.asked &= resave;
         }
     }
 
@@ -174,6 +183,7 @@ impl ControllerNode {
     pub(crate) fn entering_mode(&mut self, mode: Mode) {
         if mode == Mode::Mature && self.mode != Mode::Mature && self.tables.dirty {
             self.want_save();
+            self.tables.asked = true;
         }
     }
 
@@ -183,13 +193,24 @@ impl ControllerNode {
         }
     }
 
+    /// True when the save in progress may write the tables at the next gap between trials
+    /// (asked for, or due by steps), not only erase ahead of its turn.
+    fn save_ready(&self) -> bool {
+        self.tables.asked || self.tables.due
+    }
+
+    /// True while a save that may write the tables runs (a trial's start waits for it).
+    pub(crate) fn tables_saving(&self) -> bool {
+        self.tables.save == Save::Running && self.save_ready()
+    }
+
     /// True while the tables' part of `poll` has work for the very next turn: an
     /// announcement, or a save that is due or running and not held back (a save runs one
-    /// small step a turn; a learning trial or a staged image holds it back until a frame
-    /// changes that).
+    /// small step a turn; during a trial its erases are polled at the trial's own turns, its
+    /// frames and heartbeats; a staged image holds it back until a frame changes that).
     pub(crate) fn tables_want_a_turn(&self) -> bool {
         let held =
-            self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some();
+            self.trial.is_some() || self.tables.write.staging().is_some() || !self.save_ready();
         self.tables.announce.is_some() || (self.tables.save != Save::Idle && !held)
     }
 
@@ -210,11 +231,16 @@ impl ControllerNode {
             return;
         };
         let since = s1.wrapping_add(s2).wrapping_sub(self.tables.steps_at_save);
-        if since >= self.cfg.save_every_steps && self.trial.is_none() {
+        // the erases begin `save_lead_steps` before the save is due, during the trials (the
+        // tables are not read); the tables are written once it is due, between trials
+        let every = self.cfg.save_every_steps;
+        self.tables.due = every != u32::MAX && since >= every;
+        if every != u32::MAX && since.saturating_add(self.cfg.save_lead_steps) >= every {
             self.want_save();
         }
-        // never while a trial learns, nor while an image is staged in the slot a save would use
-        if self.trial_learns && self.trial.is_some() || self.tables.write.staging().is_some() {
+        // never while an image is staged in the slot a save would use; between trials only
+        // when the save may write the tables
+        if self.tables.write.staging().is_some() || (self.trial.is_none() && !self.save_ready()) {
             return;
         }
         let provenance = self.tables.provenance;
@@ -227,6 +253,7 @@ impl ControllerNode {
             Ok(None) => self.tables.save = Save::Running,
             Ok(Some(copy)) => {
                 self.tables.save = Save::Idle;
+                self.tables.asked = false;
                 self.tables.dirty = false;
                 self.tables.steps_at_save = copy.steps.0.wrapping_add(copy.steps.1);
                 self.push_status(ctrl, TablesEvent::Saved, out);
@@ -235,6 +262,7 @@ impl ControllerNode {
             Err(e) => {
                 // reported once: a save by steps is tried again only after as many more
                 self.tables.save = Save::Idle;
+                self.tables.asked = false;
                 self.tables.steps_at_save = s1.wrapping_add(s2);
                 let (reason, extra) = save_reason(e);
                 failed(out, table_op::SAVE, reason, extra);
@@ -264,6 +292,7 @@ impl ControllerNode {
         if c.op == StoreOp::Save {
             if self.tables.dirty || self.tables.save != Save::Idle {
                 self.want_save();
+                self.tables.asked = true;
             } else {
                 // nothing changed since the last save: that copy is the answer
                 self.push_status(ctrl, TablesEvent::Saved, out);

@@ -84,6 +84,9 @@ impl ControllerNode {
         now_ms: u32,
         out: &mut Outbox,
     ) {
+        if self.trial.is_none() && self.defers(trial, task, fine, now_ms) {
+            return;
+        }
         if ctrl.busy() {
             // a new target pre-empts a trial that is still running (its runner gave up)
             ctrl.abort();

@@ -82,6 +82,17 @@ pub fn session(seed: u64, keep_tables: bool) -> SessionConfig {
     }
 }
 
+/// A learning stage-1 target (one fine move) of trial `trial`.
+pub fn learning_target(trial: u32) -> trn_protocol::Stage1Target {
+    trn_protocol::Stage1Target {
+        trial,
+        learn: true,
+        grasp: false,
+        fine_moves: 1,
+        v: [410.0, 300.0, 395.0, 290.0, 405.0, 320.0, 380.0, 300.0],
+    }
+}
+
 pub fn to_ctrl(msg: Message) -> Envelope {
     Envelope::new(NodeId::Controller, msg)
 }

@@ -49,6 +49,11 @@ pub fn store() -> FlashStore<Flash> {
     FlashStore::new(Flash::new(pages), 4096, slot).unwrap()
 }
 
+/// A store over a fresh flash with ECC (a torn word is an error to read, as on an STM32H7).
+pub fn store_ecc() -> FlashStore<Flash> {
+    reboot(store().into_flash().with_ecc())
+}
+
 /// The same store layout over `flash` (a reboot).
 pub fn reboot(flash: Flash) -> FlashStore<Flash> {
     let slot = FlashStore::<Flash>::slot_size_needed();

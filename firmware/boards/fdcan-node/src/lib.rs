@@ -11,7 +11,9 @@
 //! - [`run`]: the node's loop: a turn of `service`, then sleep until a frame arrives or the
 //!   node's [`trn_node::ControllerNode::poll_timeout`], with embassy-time's clock as `now_ms`;
 //!   it logs each trial with the node's counters and the stack's high-water mark
-//!   ([`stack_high_water_mark`]).
+//!   ([`stack_high_water_mark`]), and feeds the board's watchdog once a turn.
+//! - [`recover`]: a panic or a hard fault logs its cause and resets the part; the HSE's start
+//!   bounded ([`recover::hse_started`]).
 //!
 //! The controller is configured only by the `SessionConfig` it receives (protocol/SPEC.md
 //! 3.2); until then it holds zeroed tables and refuses targets with an error report.
@@ -22,6 +24,7 @@
 pub mod bitrate;
 mod fdcan;
 mod port;
+pub mod recover;
 mod run;
 mod stack;
 

@@ -76,6 +76,11 @@ fn instant_of(at_ms: u32) -> Instant {
 /// the request it waits on). Port errors (bus errors, a full transmit buffer) are logged and
 /// counted; the node's own repeats recover what they cost.
 ///
+/// `feed` feeds the board's independent watchdog: called once a turn, and a turn comes at
+/// least every heartbeat period (100 ms), so a loop that stops turning (a hang, a lost
+/// interrupt) lets the watchdog reset the part. The watchdog's period must exceed the
+/// longest turn (a store's erase of all its sectors on a `StoreCommand{Erase}`).
+///
 /// `ctrl` is the controller (`&mut Controller`: tables in RAM only) or the controller with
 /// its flash store (`trn_controller::WithStore`): the node then saves the tables on a
 /// `StoreCommand`, on entering `Mature` and every `NodeConfig::save_every_steps` learning
@@ -84,12 +89,14 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     can: Fdcan<TX, RX>,
     ctrl: &mut C,
     state: &mut NodeState,
+    mut feed: impl FnMut(),
 ) -> ! {
     let NodeState { node, enc, rx } = state;
     let mut port = FdcanPort::new(can.reader(), can.writer());
     let mut port_errors: u32 = 0;
     let mut trials = 0;
     loop {
+        feed();
         if let Err(e) = node.service(ctrl, rx, enc, &mut port, now_ms()) {
             port_errors = port_errors.wrapping_add(1);
             defmt::warn!("CAN port: {} ({} so far)", e, port_errors);

@@ -1,11 +1,18 @@
 //! The TRN controller node on an STM32H743 (NUCLEO-H743ZI/ZI2): both networks' f32 tables in
 //! AXI SRAM, FDCAN1 on PD0 (RX) / PD1 (TX) to a CAN transceiver, CAN 2.0 or CAN FD as the
 //! session asks. 400 MHz from the ST-LINK's 8 MHz clock (HSE bypass), FDCAN kernel clock
-//! 80 MHz (PLL1 Q), caches on. Logs over RTT (defmt).
+//! 80 MHz (PLL1 Q), caches on. Logs over RTT (defmt, non-blocking).
 //!
 //! The learned tables are kept in the part's own flash ([`store`]): the newest intact copy is
 //! restored at boot and announced; the node saves on a `StoreCommand`, on entering `Mature`
-//! and every [`SAVE_EVERY_STEPS`] learning steps.
+//! and every [`SAVE_EVERY_STEPS`] learning steps. The store reads the flash with bus faults
+//! masked and checks the ECC flags, so a flash word torn by a power cut is a damaged copy,
+//! never a fault at every boot.
+//!
+//! The independent watchdog resets the part when the node's loop stops turning for
+//! [`WATCHDOG_US`]; a panic or a hard fault resets it at once (`trn_fdcan_node::recover`).
+//! The HSE's start is bounded: without the ST-LINK's clock the part runs from its HSI
+//! (64 MHz, the same PLL and FDCAN clocks; the HSI is less accurate, which the log says).
 #![no_std]
 #![no_main]
 
@@ -14,11 +21,11 @@ use embassy_executor::Spawner;
 use embassy_stm32::can::{self, RxFdBuf, TxFdBuf};
 use embassy_stm32::peripherals::FDCAN1;
 use embassy_stm32::time::Hertz;
+use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
-use panic_probe as _;
 use static_cell::ConstStaticCell;
 use trn_controller::{Controller, WithStore};
-use trn_fdcan_node::{bitrate, KernelClock, NodeConfig, NodeState};
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState};
 use trn_store::policy::{steps_between_saves, Endurance};
 use trn_store::RestoreError;
 
@@ -55,26 +62,124 @@ const SAVE_EVERY_STEPS: u32 = steps_between_saves(&Endurance {
     other_saves_per_day: 1,
 });
 
+/// The watchdog's period: above the longest turn of the node's loop, a `StoreCommand{Erase}`
+/// that erases the store's four sectors in one turn (ST: 2.2 s maximum each at x32; the
+/// blocking erase may run at x8, slower) — 30 s of the IWDG's 32.7 s at most.
+const WATCHDOG_US: u32 = 30_000_000;
+
 /// The store of the learned tables in the flash's last 512 KiB.
 mod store {
     use cortex_m::peripheral::SCB;
     use embassy_stm32::flash::{Blocking, Error, Flash, FLASH_BASE, FLASH_SIZE};
-    use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
-    use trn_store::FlashStore;
+    use embassy_stm32::pac;
+    use embedded_storage::nor_flash::{
+        ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+    };
+    use trn_store::{BackgroundErase, FlashStore};
+
+    /// What the store's flash refused: embassy's error, or a read that met a flash word whose
+    /// ECC found a double error (a word torn by a power cut), which the store takes for a
+    /// damaged copy (kind `Other`).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum FlashError {
+        /// embassy's flash driver refused.
+        Flash(Error),
+        /// A read met an uncorrectable ECC error (FLASH_SR DBECCERR).
+        Ecc,
+    }
+
+    impl From<Error> for FlashError {
+        fn from(e: Error) -> Self {
+            FlashError::Flash(e)
+        }
+    }
+
+    impl NorFlashError for FlashError {
+        fn kind(&self) -> NorFlashErrorKind {
+            match self {
+                FlashError::Flash(e) => e.kind(),
+                FlashError::Ecc => NorFlashErrorKind::Other,
+            }
+        }
+    }
+
+    /// SCB CCR's BFHFNMIGN: precise data bus faults ignored at a priority of -1 and below.
+    const BFHFNMIGN: u32 = 1 << 8;
+
+    /// Runs `f` with bus faults masked: FAULTMASK set and CCR.BFHFNMIGN, so a load that the
+    /// flash answers with a bus error (an ECC double error) returns instead of faulting
+    /// (RM0433; the pattern of Zephyr's H7 flash driver).
+    fn bus_faults_masked<R>(f: impl FnOnce() -> R) -> R {
+        // SAFETY: FAULTMASK and CCR are the core's own, restored before returning; no
+        // interrupt runs meanwhile (FAULTMASK), so nothing else sees them changed
+        #[allow(unsafe_code)]
+        unsafe {
+            let scb = &*SCB::PTR;
+            core::arch::asm!("cpsid f", options(nostack, preserves_flags));
+            scb.ccr.modify(|r| r | BFHFNMIGN);
+            cortex_m::asm::dsb();
+            cortex_m::asm::isb();
+            let r = f();
+            cortex_m::asm::dsb();
+            scb.ccr.modify(|r| r & !BFHFNMIGN);
+            cortex_m::asm::isb();
+            core::arch::asm!("cpsie f", options(nostack, preserves_flags));
+            r
+        }
+    }
+
+    /// A sector: 128 KiB.
+    const SECTOR: u32 = 128 * 1024;
+    /// PSIZE for erases: x32 parallelism (the 2.7-3.6 V range without an external VPP),
+    /// ST's 1.1 s typical / 2.2 s maximum per sector. embassy's word write leaves PSIZE at
+    /// x8 (its `CR` write starts from zero), at which an erase is slower, so each erase sets
+    /// it.
+    const PSIZE_X32: u8 = 0b10;
 
     /// Embassy's blocking driver of the whole flash (offsets from 0x0800_0000; sectors of
     /// 128 KiB, programmed 32 bytes at a time) with the data cache kept coherent: the flash is
     /// read through the D-cache (write-through), so the lines of what an erase or a program
     /// changed are invalidated after it (a stale line would show a header that is gone).
+    ///
+    /// The store's erases run in the background ([`BackgroundErase`]): the part's dual banks
+    /// read while they write, so with the image in bank 1 and the store in bank 2 a sector
+    /// erase of bank 2 is started through bank 2's registers and polled (BSY, QW) while the
+    /// node's loop runs from bank 1. embassy 0.6's blocking erase waits for it inside the
+    /// call (1.1-2.2 s at x32, the drives' heartbeat supervision is 500 ms); its async erase
+    /// needs an executor task for the store. Reads, writes and blocking erases wait for an
+    /// erase under way first (a read of bank 2 during its erase would stall the bus).
     pub struct CoherentFlash {
         flash: Flash<'static, Blocking>,
         /// `None` when the caches were left off.
         scb: Option<SCB>,
+        /// The offset of the sector whose erase is under way.
+        erasing: Option<u32>,
+    }
+
+    /// Bank 2's registers (the store's sectors are bank 2's sectors 4-7).
+    fn bank2() -> pac::flash::Bank {
+        pac::FLASH.bank(1)
+    }
+
+    /// Clears bank 2's error and end-of-operation flags.
+    fn clear_flags() {
+        bank2().ccr().write(|w| {
+            w.set_clr_eop(true);
+            w.set_clr_wrperr(true);
+            w.set_clr_pgserr(true);
+            w.set_clr_strberr(true);
+            w.set_clr_incerr(true);
+            w.set_clr_operr(true);
+        });
     }
 
     impl CoherentFlash {
         pub fn new(flash: Flash<'static, Blocking>, scb: Option<SCB>) -> Self {
-            CoherentFlash { flash, scb }
+            CoherentFlash {
+                flash,
+                scb,
+                erasing: None,
+            }
         }
 
         fn invalidate(&mut self, offset: u32, len: usize) {
@@ -87,14 +192,26 @@ mod store {
     }
 
     impl ErrorType for CoherentFlash {
-        type Error = Error;
+        type Error = FlashError;
     }
 
     impl ReadNorFlash for CoherentFlash {
         const READ_SIZE: usize = <Flash<'static, Blocking> as ReadNorFlash>::READ_SIZE;
 
-        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Error> {
-            self.flash.read(offset, bytes)
+        /// A read with bus faults masked, then the bank's DBECCERR flag checked: a torn word
+        /// is [`FlashError::Ecc`], not a fault (and its cache lines are dropped).
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
+            self.erase_wait()?;
+            let bank = pac::FLASH.bank((offset >= FLASH_SIZE as u32 / 2) as usize);
+            bank.ccr().write(|w| w.set_clr_dbeccerr(true));
+            let flash = &mut self.flash;
+            let read = bus_faults_masked(|| flash.read(offset, bytes));
+            if bank.sr().read().dbeccerr() {
+                bank.ccr().write(|w| w.set_clr_dbeccerr(true));
+                self.invalidate(offset, bytes.len());
+                return Err(FlashError::Ecc);
+            }
+            Ok(read?)
         }
 
         fn capacity(&self) -> usize {
@@ -106,16 +223,79 @@ mod store {
         const WRITE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::WRITE_SIZE;
         const ERASE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::ERASE_SIZE;
 
-        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Error> {
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FlashError> {
+            self.erase_wait()?;
             let done = self.flash.write(offset, bytes);
             self.invalidate(offset, bytes.len());
-            done
+            Ok(done?)
         }
 
-        fn erase(&mut self, from: u32, to: u32) -> Result<(), Error> {
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
+            self.erase_wait()?;
             let done = self.flash.erase(from, to);
             self.invalidate(from, to.saturating_sub(from) as usize);
-            done
+            Ok(done?)
+        }
+    }
+
+    impl BackgroundErase for CoherentFlash {
+        /// RM0433's sector erase on bank 2: unlock, SER with the sector and PSIZE, START;
+        /// only sectors of bank 2 (the store's).
+        fn erase_start(&mut self, offset: u32) -> Result<(), FlashError> {
+            self.erase_wait()?;
+            let bank_size = FLASH_SIZE as u32 / 2;
+            if offset < bank_size || offset >= FLASH_SIZE as u32 {
+                return Err(Error::Size.into());
+            }
+            if !offset.is_multiple_of(SECTOR) {
+                return Err(Error::Unaligned.into());
+            }
+            let bank = bank2();
+            if bank.sr().read().bsy() || bank.sr().read().qw() {
+                return Err(Error::Seq.into());
+            }
+            clear_flags();
+            if bank.cr().read().lock() {
+                bank.keyr().write_value(0x4567_0123);
+                bank.keyr().write_value(0xCDEF_89AB);
+            }
+            bank.cr().modify(|w| {
+                w.set_ser(true);
+                w.set_snb(((offset - bank_size) / SECTOR) as u8);
+                w.set_psize(PSIZE_X32);
+            });
+            bank.cr().modify(|w| w.set_start(true));
+            cortex_m::asm::dsb();
+            self.erasing = Some(offset);
+            Ok(())
+        }
+
+        fn erase_done(&mut self) -> Result<bool, FlashError> {
+            let Some(offset) = self.erasing else {
+                return Ok(true);
+            };
+            let bank = bank2();
+            let sr = bank.sr().read();
+            if sr.bsy() || sr.qw() {
+                return Ok(false);
+            }
+            self.erasing = None;
+            bank.cr().modify(|w| w.set_ser(false));
+            bank.cr().modify(|w| w.set_lock(true));
+            clear_flags();
+            self.invalidate(offset, SECTOR as usize);
+            if sr.wrperr() {
+                Err(Error::Protected.into())
+            } else if sr.pgserr() || sr.strberr() || sr.incerr() || sr.operr() {
+                Err(Error::Seq.into())
+            } else {
+                Ok(true)
+            }
+        }
+
+        fn erase_wait(&mut self) -> Result<(), FlashError> {
+            while !self.erase_done()? {}
+            Ok(())
         }
     }
 
@@ -161,18 +341,39 @@ fn restore_problem(e: &RestoreError) {
     }
 }
 
+/// Switches the HSE on in bypass (the ST-LINK's clock output) and waits for it, bounded:
+/// true when it runs.
+fn hse_starts() -> bool {
+    use embassy_stm32::pac::RCC;
+    RCC.cr().modify(|w| w.set_hsebyp(true));
+    RCC.cr().modify(|w| w.set_hseon(true));
+    let started = recover::hse_started(|| RCC.cr().read().hserdy());
+    if !started {
+        RCC.cr().modify(|w| w.set_hseon(false));
+        RCC.cr().modify(|w| w.set_hsebyp(false));
+    }
+    started
+}
+
 /// 400 MHz system clock from HSE (NUCLEO: the ST-LINK's 8 MHz MCO, bypass), AHB 200 MHz,
-/// APBs 100 MHz, FDCAN from PLL1 Q at 80 MHz.
-fn clocks() -> embassy_stm32::Config {
+/// APBs 100 MHz, FDCAN from PLL1 Q at 80 MHz. Without the HSE (`hse` false): the same PLL
+/// from the 64 MHz HSI divided by 8.
+fn clocks(hse: bool) -> embassy_stm32::Config {
     use rcc::*;
     let mut config = embassy_stm32::Config::default();
-    config.rcc.hse = Some(Hse {
-        freq: Hertz(8_000_000),
-        mode: HseMode::Bypass,
-    });
+    if hse {
+        config.rcc.hse = Some(Hse {
+            freq: Hertz(8_000_000),
+            mode: HseMode::Bypass,
+        });
+    }
     config.rcc.pll1 = Some(Pll {
-        source: PllSource::HSE,
-        prediv: PllPreDiv::DIV1,
+        source: if hse { PllSource::HSE } else { PllSource::HSI },
+        prediv: if hse {
+            PllPreDiv::DIV1
+        } else {
+            PllPreDiv::DIV8
+        },
         mul: PllMul::MUL100,
         fracn: None,
         divp: Some(PllDiv::DIV2),
@@ -192,7 +393,15 @@ fn clocks() -> embassy_stm32::Config {
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
-    let p = embassy_stm32::init(clocks());
+    let hse = hse_starts();
+    let p = embassy_stm32::init(clocks(hse));
+    let mut watchdog = IndependentWatchdog::new(p.IWDG1, WATCHDOG_US);
+    watchdog.unleash();
+    if !hse {
+        defmt::warn!(
+            "the HSE (the ST-LINK's 8 MHz clock) did not start: running on the HSI, whose accuracy may not hold the CAN bit rate"
+        );
+    }
     // the tables are read from AXI SRAM: with the caches on (no DMA touches that memory)
     let scb = if let Some(mut core) = cortex_m::Peripherals::take() {
         core.SCB.enable_icache();
@@ -209,7 +418,9 @@ async fn main(_spawner: Spawner) {
         return;
     }
     let flash = store::CoherentFlash::new(embassy_stm32::flash::Flash::new_blocking(p.FLASH), scb);
-    let Ok(store) = store::Store::new(flash, store::STORE_AT, store::SLOT) else {
+    let Ok(store) = store::Store::new(flash, store::STORE_AT, store::SLOT)
+        .map(store::Store::with_background_erase)
+    else {
         defmt::error!("the tables' store does not fit its flash region: not started");
         return;
     };
@@ -235,6 +446,13 @@ async fn main(_spawner: Spawner) {
             None
         }
     };
+    let torn = board.store.unreadable_slots();
+    if torn != 0 {
+        defmt::warn!(
+            "store slots {=u8:b}: a flash word torn by a power cut (ECC); no copy there, the next save erases it",
+            torn
+        );
+    }
     node.tables_restored(&mut board, restored);
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
     let running = rcc::frequency::<FDCAN1>();
@@ -260,5 +478,5 @@ async fn main(_spawner: Spawner) {
         bitrate::NOMINAL,
         bitrate::DATA
     );
-    trn_fdcan_node::run(can, &mut board, node).await
+    trn_fdcan_node::run(can, &mut board, node, || watchdog.pet()).await
 }
