@@ -390,9 +390,10 @@ fn inverse_dv_norm2<const D: usize>(dv: &[f32; D], rule: DvRule) -> Result<f32> 
 /// The trial's secant correction of the averaged Jacobian in mature operation
 /// ([`crate::StageConfig::trial_secant`]): the rank-one rule of (8.15) applied to the trial's
 /// copy `A_bar` of the average instead of the tables,
-/// `A_bar += gain (dp - A_bar dv) dv^T / ||dv||^2`, with `dp` the last fine move's pressure
-/// change and `dv` the change of position it made. Returns [`Error::ZeroLengthDv`] without
-/// touching `a_bar` when `||dv||` is below the rule's minimum (camera noise would dominate the secant).
+/// `A_bar += gain (dp - A_bar dv) dv^T / ||dv||^2` (`+ noise^2` with the rule's
+/// regularisation, [`DvRule`]), with `dp` the last fine move's pressure change and `dv` the
+/// change of position it made. Returns [`Error::ZeroLengthDv`] without touching `a_bar` when
+/// `||dv||` is below the rule's minimum (camera noise would dominate the secant).
 pub fn secant_update<const D: usize, const M: usize>(
     a_bar: &mut [[f32; D]; M],
     gain: f32,
@@ -429,7 +430,9 @@ fn secant_rows(a: &mut [f32], g: f32, dp: &[f32], dv: &[f32]) {
 /// `dp = a_bar (c_target - c_i)` that equals this form when `a_k` is close to `a_bar`
 /// (READING-NOTES.md); this form is used for both stages.
 ///
-/// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv||` is below the rule's minimum.
+/// The normalisation is `||dv||^2 + noise^2` with the rule's regularisation ([`DvRule`]).
+/// Returns [`Error::ZeroLengthDv`] without touching the tables when `||dv||` is below the
+/// rule's minimum.
 #[inline(never)]
 pub fn update_jacobians<const N: usize, const D: usize, const M: usize, const K: usize>(
     net: &mut Trn<N, D, M>,
@@ -1042,7 +1045,8 @@ mod tests {
                 }).sum()
             };
             let before = resid(&net);
-            update_jacobians(&mut net, &r, &Falloff { value: [1.0] }, g, &dp, &dv, DvRule::at_least(1e-3)).unwrap();
+            let rule = DvRule::at_least(1e-3);
+            update_jacobians(&mut net, &r, &Falloff { value: [1.0] }, g, &dp, &dv, rule).unwrap();
             prop_assert!(resid(&net) <= before * (1.0 - g) + 1e-4);
         }
     }
