@@ -156,7 +156,8 @@ pub struct CopyKeys {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Axis {
-    /// A plant key or a setting (`preset`, `ablation`, `law`, `plant`, `trials`, ...).
+    /// A plant key, a controller key after `controller.`, or a setting (`preset`, `ablation`,
+    /// `law`, `plant`, `trials`, ...).
     pub key: String,
     /// Its name in row names (default: the key).
     pub name: Option<String>,
