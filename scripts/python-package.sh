@@ -5,7 +5,8 @@
 # workspace), then python/tests/check_package.py: check_env(SoftArmEnv()) and 200 random
 # steps, the vector environment, the TRN and Broyden controllers from Python, the decoder on
 # a training's candump log (0 undecoded), and a rerun recording of a training
-# (`trn train --rerun-save`) read back with rerun's own reader (rerun-sdk installed too).
+# (`trn train --rerun-save`) read back with rerun's own reader (rerun-sdk installed too),
+# then pytest python/tests.
 # Prints each part's time; the venv (about 0.5 GB with rerun-sdk) is removed at the end.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -32,6 +33,10 @@ TRN_PYTHON="$venv/bin/python" "$root/target/release/trn" train --quiet --trials 
 grep -q ', 0 undecoded$' "$work/decode.txt"
 (cd "$work" && "$venv/bin/python" "$root/python/tests/check_package.py" \
     --log "$work/train.log" --recording "$work/train.rrd" --trials "$trials")
+# the environment's own tests (check_env on the registered id, pickling, termination, the
+# native vector env against SyncVectorEnv, the options); SB3's test is skipped without it
+"${pip[@]}" pytest
+(cd "$work" && "$venv/bin/python" -m pytest -q -p no:cacheprovider "$root/python/tests")
 disk=$(du -sm "$venv" | cut -f1)
 echo "python package: pip install ./python gymnasium ${t_install} s, rerun-sdk ${t_rerun} s," \
     "all $((SECONDS - t0)) s; venv ${disk} MB"
