@@ -128,6 +128,18 @@ impl Sim {
                 options.randomise
             ));
         }
+        // every plant `randomise` can draw is valid: each bound the configuration's
+        // validation checks is on one value, so the extreme factors are the cases to check
+        let r = options.randomise;
+        for f in [1.0 - r, 1.0 + r] {
+            Sim::scaled(&cfg, &options, || f).validate().map_err(|e| {
+                if r > 0.0 {
+                    format!("randomise {r}: a plant it can draw is not valid: {e}")
+                } else {
+                    e.to_string()
+                }
+            })?;
+        }
         let plant =
             Plant::new(&Sim::plant_config(&cfg, &options, 0), 0).map_err(|e| e.to_string())?;
         let k = if stage == 1 { 4 } else { 2 };
@@ -151,19 +163,29 @@ impl Sim {
     /// The configuration of a plant built from `seed`: the options' physics step and
     /// randomised joints.
     fn plant_config(cfg: &SimConfig, options: &Options, seed: u64) -> SimConfig {
+        let r = options.randomise;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0DA1_B0A7_5EED);
+        Sim::scaled(cfg, options, || {
+            if r > 0.0 {
+                uniform(&mut rng, 1.0 - r, 1.0 + r)
+            } else {
+                1.0
+            }
+        })
+    }
+
+    /// `cfg` with the options' physics step and each joint's natural frequency, damping
+    /// ratio, pressure lag and loop width multiplied by successive `factor()`s.
+    fn scaled(cfg: &SimConfig, options: &Options, mut factor: impl FnMut() -> f64) -> SimConfig {
         let mut c = cfg.clone();
         if let Some(dt) = options.dt_s {
             c.dt_s = dt;
         }
-        if options.randomise > 0.0 {
-            let r = options.randomise;
-            let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0DA1_B0A7_5EED);
-            for j in &mut c.joints {
-                j.natural_freq_hz *= uniform(&mut rng, 1.0 - r, 1.0 + r);
-                j.damping_ratio *= uniform(&mut rng, 1.0 - r, 1.0 + r);
-                j.pressure_tau_s *= uniform(&mut rng, 1.0 - r, 1.0 + r);
-                j.hysteresis_width *= uniform(&mut rng, 1.0 - r, 1.0 + r);
-            }
+        for j in &mut c.joints {
+            j.natural_freq_hz *= factor();
+            j.damping_ratio *= factor();
+            j.pressure_tau_s *= factor();
+            j.hysteresis_width *= factor();
         }
         c
     }

@@ -185,6 +185,13 @@ def test_randomised_plant_is_reproducible_from_its_seed():
     assert not np.array_equal(r1, r2)
     with pytest.raises(ValueError, match="randomise"):
         SoftArmEnv(randomise=0.9)
+    # a physics step too coarse for the fastest joint it may draw (2 pi f dt <= 0.2) is
+    # refused when the env is made, not at some later reset
+    with pytest.raises(ValueError, match="randomise 0.5.*natural_freq_hz"):
+        SoftArmEnv(dt_s=0.01, randomise=0.5)
+    env = SoftArmEnv(dt_s=0.01, randomise=0.2)
+    for seed in range(5):
+        env.reset(seed=seed)
 
 
 def test_flat_observation():
