@@ -388,6 +388,25 @@ mod tests {
         );
     }
 
+    /// The kept values are the libm calls' own, also when dt or tau change back and forth.
+    #[test]
+    fn kept_values_are_the_calls_results() {
+        assert_eq!(tanh_shape().to_bits(), SHAPE.tanh().to_bits());
+        for (dt, tau) in [
+            (0.001, 3.0),
+            (0.001, 2.0),
+            (0.01, 2.0),
+            (0.001, 3.0),
+            (0.001, 3.0),
+        ] {
+            assert_eq!(
+                creep_decay(dt, tau).to_bits(),
+                (-dt / tau).exp().to_bits(),
+                "dt {dt} tau {tau}"
+            );
+        }
+    }
+
     #[test]
     fn servo_saturates_and_quantises() {
         let mut cfg = SimConfig::default().joints[0].clone();
