@@ -21,9 +21,10 @@ step docs-sections python3 scripts/readme_sections.py --check
 step cluster-slurm bash scripts/cluster-test.sh slurm
 step cluster-ray bash scripts/cluster-test.sh ray
 step dbc-interop bash protocol/tools/check_dbc.sh
-# The Python package in a fresh venv (pip install ./python gymnasium): check_env and 200
-# random steps, the controllers from Python, the decoder on a training log (0 undecoded), a
-# rerun recording of a training read back (scripts/python-package.sh prints its time/disk).
+# The Python package's abi3 wheel (maturin) installed in a fresh venv with no Rust toolchain
+# on PATH: check_env and 200 random steps, the controllers from Python, the decoder on a
+# training log (0 undecoded), a rerun recording of a training read back, pytest python/tests
+# (scripts/python-package.sh prints its time/disk).
 step python-package bash scripts/python-package.sh
 step fuzz-60s bash protocol/fuzz/run.sh 60
 prune_if_low protocol/fuzz/target

@@ -1,5 +1,6 @@
 //! [`Arm`]: the simulated SoftArm as the core of a reaching environment, as the lab's
-//! held-out evaluation sets a trial up.
+//! held-out evaluation sets a trial up; [`ArmVec`]: many of them stepped in one call, on a
+//! thread pool, without the GIL.
 //!
 //! `reset(seed)` builds the plant from `seed`, draws a deployment-style target (a twin arm
 //! in the same state goes from rest along its own random path to random pressures; its
@@ -8,17 +9,28 @@
 //! since stage 2 drives joints 0..=2 only). `step(action)` commands the pressures through
 //! the servo drives' 12-bit commands and reads the cameras as the camera processor does
 //! (settle, stereo check, new frames, hidden lights filled from the marker fit): one move.
+//!
+//! The options ([`Options`]) change the plant the lab runs only when asked: `dt_s` (a
+//! coarser physics step, faster), `persistent` (the arm carries over from one episode to the
+//! next: drift and wear build up), `randomise` (each plant built draws its joints'
+//! dynamics and loop width around the configured values, from the episode's seed).
+//!
+//! An arm's whole state (the plant's hysteresis, creep, drift, wear, noise generators, the
+//! target, the camera processor's memory) is saved by `state()` and restored bit for bit by
+//! `from_state` (pickling in Python).
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::markers::Tracker;
 use trn_plant::targets::{HeldOut, Target};
 use trn_plant::vec3::V3;
-use trn_plant::{Plant, PointStatus, Readings, SimConfig};
+use trn_plant::{uniform, Plant, PointStatus, Readings, SimConfig};
 
 use crate::render;
 
@@ -47,22 +59,137 @@ fn reading<const K: usize>(r: &Readings<K>) -> (Vec<f64>, Vec<u8>) {
     (xy, status)
 }
 
-/// The simulated arm, a target and the last reading (see the module).
-#[pyclass(module = "trn_softarm._native")]
-pub struct Arm {
+/// How an arm departs from the lab's plant (see the module); the default departs in nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Options {
+    /// The physics step (s) instead of the configuration's.
+    pub dt_s: Option<f64>,
+    /// The plant carries over from one episode to the next.
+    pub persistent: bool,
+    /// Each joint's natural frequency, damping ratio, pressure lag and loop width are the
+    /// configured ones times a factor drawn from [1 - randomise, 1 + randomise].
+    pub randomise: f64,
+}
+
+/// Largest `randomise`.
+const RANDOMISE_MAX: f64 = 0.5;
+
+/// What the agent is not shown, computed once a reading is taken.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+struct Truth {
+    lights_true: Vec<f64>,
+    in_view: Vec<bool>,
+    joint_angles_deg: [f64; 5],
+    gripper_mm: V3,
+    pose_error_mm: f32,
+    pose_error_deg: f32,
+}
+
+/// One simulated arm, its target and its last reading: the state an [`Arm`] wraps and an
+/// [`ArmVec`] holds many of.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Sim {
+    /// The configuration as named (before the options' changes).
     cfg: SimConfig,
+    options: Options,
     stage: u8,
     plant: Plant,
+    /// Whether `plant` has been through a reset (a persistent arm keeps it from then on).
+    started: bool,
+    /// The seed the plant was built from.
+    plant_seed: u64,
     target: Target,
     /// The camera processor's memory of where the markers were.
     track: Tracker,
     commanded: [f32; 5],
     lights: Vec<f64>,
     status: Vec<u8>,
+    truth: Truth,
     moves: u32,
 }
 
-impl Arm {
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+impl Sim {
+    /// An arm of `cfg` for `stage`, not reset yet.
+    pub fn new(cfg: SimConfig, stage: u8, options: Options) -> Result<Sim, String> {
+        if !(1..=2).contains(&stage) {
+            return Err("stage is 1 or 2".into());
+        }
+        if !(0.0..=RANDOMISE_MAX).contains(&options.randomise) {
+            return Err(format!(
+                "randomise is a fraction in [0, {RANDOMISE_MAX}], got {}",
+                options.randomise
+            ));
+        }
+        // every plant `randomise` can draw is valid: each bound the configuration's
+        // validation checks is on one value, so the extreme factors are the cases to check
+        let r = options.randomise;
+        for f in [1.0 - r, 1.0 + r] {
+            Sim::scaled(&cfg, &options, || f).validate().map_err(|e| {
+                if r > 0.0 {
+                    format!("randomise {r}: a plant it can draw is not valid: {e}")
+                } else {
+                    e.to_string()
+                }
+            })?;
+        }
+        let plant =
+            Plant::new(&Sim::plant_config(&cfg, &options, 0), 0).map_err(|e| e.to_string())?;
+        let k = if stage == 1 { 4 } else { 2 };
+        Ok(Sim {
+            cfg,
+            options,
+            stage,
+            plant,
+            started: false,
+            plant_seed: 0,
+            target: Target::NONE,
+            track: Tracker::default(),
+            commanded: [0.0; 5],
+            lights: vec![0.0; 2 * k],
+            status: vec![3; k],
+            truth: Truth::default(),
+            moves: 0,
+        })
+    }
+
+    /// The configuration of a plant built from `seed`: the options' physics step and
+    /// randomised joints.
+    fn plant_config(cfg: &SimConfig, options: &Options, seed: u64) -> SimConfig {
+        let r = options.randomise;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0DA1_B0A7_5EED);
+        Sim::scaled(cfg, options, || {
+            if r > 0.0 {
+                uniform(&mut rng, 1.0 - r, 1.0 + r)
+            } else {
+                1.0
+            }
+        })
+    }
+
+    /// `cfg` with the options' physics step and each joint's natural frequency, damping
+    /// ratio, pressure lag and loop width multiplied by successive `factor()`s.
+    fn scaled(cfg: &SimConfig, options: &Options, mut factor: impl FnMut() -> f64) -> SimConfig {
+        let mut c = cfg.clone();
+        if let Some(dt) = options.dt_s {
+            c.dt_s = dt;
+        }
+        for j in &mut c.joints {
+            j.natural_freq_hz *= factor();
+            j.damping_ratio *= factor();
+            j.pressure_tau_s *= factor();
+            j.hysteresis_width *= factor();
+        }
+        c
+    }
+
     /// The arm settles and the cameras read, as the camera processor serves a capture.
     fn capture(&mut self) {
         self.plant.settle();
@@ -73,6 +200,21 @@ impl Arm {
         };
         self.lights = xy;
         self.status = status;
+        let (lights_true, status) = if self.stage == 1 {
+            reading(&self.plant.observe_gripper_lights_true())
+        } else {
+            reading(&self.plant.observe_gripper_centre_true())
+        };
+        let pose = self.plant.gripper_pose();
+        let (mm, deg) = pose.error_to(&self.target.pose);
+        self.truth = Truth {
+            lights_true,
+            in_view: status.iter().map(|&s| s == 0).collect(),
+            joint_angles_deg: pose.joint_angles_deg,
+            gripper_mm: pose.centre_mm,
+            pose_error_mm: mm,
+            pose_error_deg: deg,
+        };
     }
 
     /// The target's readings for this stage (noisy as measured, and noise-free).
@@ -85,63 +227,18 @@ impl Arm {
         }
     }
 
-    /// Noise-free projections of this stage's lights now, and whether each is in view.
-    fn truth(&mut self) -> (Vec<f64>, Vec<bool>) {
-        let (xy, status) = if self.stage == 1 {
-            reading(&self.plant.observe_gripper_lights_true())
-        } else {
-            reading(&self.plant.observe_gripper_centre_true())
-        };
-        (xy, status.iter().map(|&s| s == 0).collect())
-    }
-}
-
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
-}
-
-#[pymethods]
-impl Arm {
-    /// An arm of the named plant (`realistic`, `ideal`, `aging`, or a TOML file) for stage
-    /// 1 (5 pressures, lights p and q) or 2 (3 pressures, the gripper-centre light).
-    #[new]
-    #[pyo3(signature = (config = "realistic", stage = 1))]
-    fn new(config: &str, stage: u8) -> PyResult<Arm> {
-        if !(1..=2).contains(&stage) {
-            return Err(PyValueError::new_err("stage is 1 or 2"));
+    /// A new episode from `seed` (see the module).
+    pub fn reset(&mut self, seed: u64) -> Result<(), String> {
+        if !(self.options.persistent && self.started) {
+            let cfg = Sim::plant_config(&self.cfg, &self.options, seed);
+            self.plant = Plant::new(&cfg, seed).map_err(|e| e.to_string())?;
+            self.plant_seed = seed;
+            self.started = true;
         }
-        let cfg = SimConfig::resolve(Some(std::path::Path::new(config)))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let plant = Plant::new(&cfg, 0).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let k = if stage == 1 { 4 } else { 2 };
-        Ok(Arm {
-            cfg,
-            stage,
-            plant,
-            target: Target::NONE,
-            track: Tracker::default(),
-            commanded: [0.0; 5],
-            lights: vec![0.0; 2 * k],
-            status: vec![3; k],
-            moves: 0,
-        })
-    }
-
-    /// A new episode from `seed`: the plant, the target and the start pose; the arm's first
-    /// reading follows.
-    fn reset(&mut self, seed: u64) -> PyResult<()> {
-        self.plant =
-            Plant::new(&self.cfg, seed).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5EED_0FA5_C1A5);
-        let held = HeldOut::set(&self.plant, &mut rng, 1, false)
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?[0];
-        self.target = held
-            .realise(&self.plant, false)
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let (held, target) =
+            HeldOut::set_realised(&self.plant, &mut rng, 1, false).map_err(|e| e.to_string())?[0];
+        self.target = target;
         let mut start = held.start;
         if self.stage == 2 {
             start[3] = held.pressures[3];
@@ -155,16 +252,13 @@ impl Arm {
         Ok(())
     }
 
-    /// One move: the pressures of the joints this stage drives (5 or 3, each in [-1, 1]),
-    /// then the cameras' reading.
-    fn step(&mut self, action: Vec<f32>) -> PyResult<()> {
+    /// One move (see [`Arm::step`]).
+    pub fn step(&mut self, action: &[f32]) -> Result<(), String> {
         let n = self.joints();
         if action.len() != n || action.iter().any(|a| !a.is_finite()) {
-            return Err(PyValueError::new_err(format!(
-                "an action is {n} finite pressures, got {action:?}"
-            )));
+            return Err(format!("an action is {n} finite pressures, got {action:?}"));
         }
-        for (c, a) in self.commanded.iter_mut().zip(&action) {
+        for (c, a) in self.commanded.iter_mut().zip(action) {
             *c = a.clamp(-1.0, 1.0);
         }
         let cmds: Vec<(usize, f32)> = (0..n).map(|j| (j, self.commanded[j])).collect();
@@ -174,8 +268,6 @@ impl Arm {
         Ok(())
     }
 
-    /// Joints this stage drives.
-    #[getter]
     fn joints(&self) -> usize {
         if self.stage == 1 {
             5
@@ -184,51 +276,28 @@ impl Arm {
         }
     }
 
-    /// The stage (1 or 2).
-    #[getter]
-    fn stage(&self) -> u8 {
-        self.stage
-    }
-
-    /// Both cameras' image size (width, height), pixels.
-    #[getter]
-    fn image_size(&self) -> (u32, u32) {
-        self.cfg.image_size()
-    }
-
-    /// The last reading: pixels (x, y of each light in camera 0 then 1), status codes, and
-    /// the target as measured.
-    fn observation(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
-        (self.lights.clone(), self.status.clone(), self.target_of().0)
-    }
-
-    /// What the agent is not shown: the noise-free truth, the errors, the arm's state.
-    fn info<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let (target, target_true) = self.target_of();
-        let (truth, in_view) = self.truth();
+        let t = &self.truth;
         let d = PyDict::new(py);
         let valid = self.status.iter().all(|&s| s == 0);
         d.set_item("error_px", valid.then(|| dist(&self.lights, &target)))?;
         d.set_item(
             "error_true_px",
-            in_view
+            t.in_view
                 .iter()
                 .all(|&v| v)
-                .then(|| dist(&truth, &target_true)),
+                .then(|| dist(&t.lights_true, &target_true)),
         )?;
-        d.set_item("lights_true", truth)?;
-        d.set_item("lights_true_in_view", in_view)?;
+        d.set_item("lights_true", t.lights_true.clone())?;
+        d.set_item("lights_true_in_view", t.in_view.clone())?;
         d.set_item("target_true", target_true)?;
         d.set_item("pressures", self.commanded.to_vec())?;
-        d.set_item(
-            "joint_angles_deg",
-            self.plant.gripper_pose().joint_angles_deg.to_vec(),
-        )?;
-        d.set_item("gripper_mm", self.plant.gripper_pose().centre_mm.to_vec())?;
+        d.set_item("joint_angles_deg", t.joint_angles_deg.to_vec())?;
+        d.set_item("gripper_mm", t.gripper_mm.to_vec())?;
         d.set_item("target_gripper_mm", self.target.pose.centre_mm.to_vec())?;
-        let (mm, deg) = self.plant.pose_error(&self.target.pose);
-        d.set_item("pose_error_mm", mm as f64)?;
-        d.set_item("pose_error_deg", deg as f64)?;
+        d.set_item("pose_error_mm", t.pose_error_mm as f64)?;
+        d.set_item("pose_error_deg", t.pose_error_deg as f64)?;
         d.set_item(
             "noise_floor_px",
             if self.stage == 1 {
@@ -239,13 +308,126 @@ impl Arm {
         )?;
         d.set_item("time_s", self.plant.time_s())?;
         d.set_item("moves", self.moves)?;
+        d.set_item("plant_seed", self.plant_seed)?;
         Ok(d)
+    }
+}
+
+fn value_err(e: String) -> PyErr {
+    PyValueError::new_err(e)
+}
+
+fn resolve(config: &str) -> PyResult<SimConfig> {
+    SimConfig::resolve(Some(std::path::Path::new(config)))
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// The simulated arm, a target and the last reading (see the module).
+#[pyclass(module = "trn_softarm._native")]
+pub struct Arm {
+    sim: Sim,
+}
+
+#[pymethods]
+impl Arm {
+    /// An arm of the named plant (`realistic`, `ideal`, `aging`, or a TOML file) for stage
+    /// 1 (5 pressures, lights p and q) or 2 (3 pressures, the gripper-centre light); the
+    /// options: see the module.
+    #[new]
+    #[pyo3(signature = (config = "realistic", stage = 1, dt_s = None, persistent = false, randomise = 0.0))]
+    fn new(
+        config: &str,
+        stage: u8,
+        dt_s: Option<f64>,
+        persistent: bool,
+        randomise: f64,
+    ) -> PyResult<Arm> {
+        let options = Options {
+            dt_s,
+            persistent,
+            randomise,
+        };
+        Ok(Arm {
+            sim: Sim::new(resolve(config)?, stage, options).map_err(value_err)?,
+        })
+    }
+
+    /// A new episode from `seed`: the plant (unless persistent), the target and the start
+    /// pose; the arm's first reading follows.
+    fn reset(&mut self, py: Python<'_>, seed: u64) -> PyResult<()> {
+        let sim = &mut self.sim;
+        py.detach(|| sim.reset(seed))
+            .map_err(PyRuntimeError::new_err)
+    }
+
+    /// One move: the pressures of the joints this stage drives (5 or 3, each in [-1, 1]),
+    /// then the cameras' reading.
+    fn step(&mut self, py: Python<'_>, action: Vec<f32>) -> PyResult<()> {
+        let sim = &mut self.sim;
+        py.detach(|| sim.step(&action)).map_err(value_err)
+    }
+
+    /// Joints this stage drives.
+    #[getter]
+    fn joints(&self) -> usize {
+        self.sim.joints()
+    }
+
+    /// The stage (1 or 2).
+    #[getter]
+    fn stage(&self) -> u8 {
+        self.sim.stage
+    }
+
+    /// Both cameras' image size (width, height), pixels.
+    #[getter]
+    fn image_size(&self) -> (u32, u32) {
+        self.sim.cfg.image_size()
+    }
+
+    /// The last reading: pixels (x, y of each light in camera 0 then 1), status codes, and
+    /// the target as measured.
+    fn observation(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
+        let s = &self.sim;
+        (s.lights.clone(), s.status.clone(), s.target_of().0)
+    }
+
+    /// What the agent is not shown: the noise-free truth, the errors, the arm's state.
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.sim.info(py)
+    }
+
+    /// The arm's whole state as bytes (restored bit for bit by `Arm.from_state`).
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let b =
+            postcard::to_allocvec(&self.sim).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(PyBytes::new(py, &b))
+    }
+
+    /// The arm whose state `state()` gave.
+    #[staticmethod]
+    fn from_state(state: &[u8]) -> PyResult<Arm> {
+        let sim: Sim = postcard::from_bytes(state)
+            .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
+        Ok(Arm { sim })
+    }
+
+    /// Pickling (and `copy.deepcopy`): the state, restored by `Arm.from_state`.
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let from = py
+            .import("trn_softarm._native")?
+            .getattr("arm_from_state")?;
+        Ok((from, (self.state(py)?,)))
     }
 
     /// The scene in 3-D (mm, base frame): the arm's joints from the base to the gripper
     /// centre, its lights p and q, the target's gripper centre and lights, the cameras.
     fn geometry<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let chain = self.plant.chain();
+        let s = &self.sim;
+        let chain = s.plant.chain();
         let d = PyDict::new(py);
         let links: Vec<V3> = vec![
             [0.0, 0.0, 0.0],
@@ -255,17 +437,14 @@ impl Arm {
             chain.pose.centre_mm,
         ];
         d.set_item("links", links)?;
-        d.set_item("lights", lights(&self.cfg, &chain.pose).to_vec())?;
-        let t = forward(
-            &self.cfg,
-            &self.target.pose.joint_angles_deg.map(f64::to_radians),
-        );
+        d.set_item("lights", lights(&s.cfg, &chain.pose).to_vec())?;
+        let t = forward(&s.cfg, &s.target.pose.joint_angles_deg.map(f64::to_radians));
         d.set_item(
             "target_links",
             vec![t.shoulder, t.elbow, t.wrist, t.pose.centre_mm],
         )?;
-        d.set_item("target_lights", lights(&self.cfg, &t.pose).to_vec())?;
-        let cams: Vec<[f64; 3]> = self.cfg.cameras.iter().map(|c| c.position_mm).collect();
+        d.set_item("target_lights", lights(&s.cfg, &t.pose).to_vec())?;
+        let cams: Vec<[f64; 3]> = s.cfg.cameras.iter().map(|c| c.position_mm).collect();
         d.set_item("cameras", cams)?;
         Ok(d)
     }
@@ -277,15 +456,142 @@ impl Arm {
         if !(1..=16).contains(&scale) {
             return Err(PyValueError::new_err("scale is 1..=16"));
         }
-        let (target, _) = self.target_of();
+        let s = &self.sim;
+        let (target, _) = s.target_of();
         let scene = render::Scene {
-            cfg: &self.cfg,
-            chain: self.plant.chain(),
-            lights: &self.lights,
-            status: &self.status,
+            cfg: &s.cfg,
+            chain: s.plant.chain(),
+            lights: &s.lights,
+            status: &s.status,
             target: &target,
         };
         Ok(render::cameras(&scene, scale))
+    }
+}
+
+/// The arm whose state `Arm.state()` gave (what unpickling calls).
+#[pyfunction]
+pub fn arm_from_state(state: &[u8]) -> PyResult<Arm> {
+    Arm::from_state(state)
+}
+
+/// `n` arms of one configuration stepped together: every call runs the arms on a thread
+/// pool with the GIL released (rayon's, as many threads as cores). Arm `i` is reset or
+/// stepped exactly as an [`Arm`] would be with the same seeds and actions.
+#[pyclass(module = "trn_softarm._native")]
+pub struct ArmVec {
+    sims: Vec<Sim>,
+}
+
+/// What one arm of an [`ArmVec`] does in a call.
+enum Work {
+    Reset(u64),
+    Step(Vec<f32>),
+}
+
+/// Runs `f` on every arm whose `work` is `Some`, in parallel, and returns the first error.
+fn run_all<W: Sync>(
+    py: Python<'_>,
+    sims: &mut [Sim],
+    work: &[Option<W>],
+    f: impl Fn(&mut Sim, &W) -> Result<(), String> + Sync,
+) -> PyResult<()> {
+    if work.len() != sims.len() {
+        return Err(PyValueError::new_err(format!(
+            "{} arms, {} entries given",
+            sims.len(),
+            work.len()
+        )));
+    }
+    py.detach(|| {
+        sims.par_iter_mut()
+            .zip(work.par_iter())
+            .map(|(s, w)| match w {
+                Some(w) => f(s, w),
+                None => Ok(()),
+            })
+            .collect::<Result<Vec<()>, String>>()
+    })
+    .map(|_| ())
+    .map_err(value_err)
+}
+
+#[pymethods]
+impl ArmVec {
+    /// `n` arms, each as `Arm(config, stage, dt_s, persistent, randomise)`.
+    #[new]
+    #[pyo3(signature = (n, config = "realistic", stage = 1, dt_s = None, persistent = false, randomise = 0.0))]
+    fn new(
+        n: usize,
+        config: &str,
+        stage: u8,
+        dt_s: Option<f64>,
+        persistent: bool,
+        randomise: f64,
+    ) -> PyResult<ArmVec> {
+        if n == 0 {
+            return Err(PyValueError::new_err("at least one arm"));
+        }
+        let options = Options {
+            dt_s,
+            persistent,
+            randomise,
+        };
+        let sim = Sim::new(resolve(config)?, stage, options).map_err(value_err)?;
+        Ok(ArmVec { sims: vec![sim; n] })
+    }
+
+    /// Number of arms.
+    fn __len__(&self) -> usize {
+        self.sims.len()
+    }
+
+    /// Resets arm `i` from `seeds[i]` and steps it by `actions[i]` where given (`None`
+    /// leaves it as it is; an arm given both is reset). All at once, in parallel.
+    fn run(
+        &mut self,
+        py: Python<'_>,
+        seeds: Vec<Option<u64>>,
+        actions: Vec<Option<Vec<f32>>>,
+    ) -> PyResult<()> {
+        if seeds.len() != actions.len() {
+            return Err(PyValueError::new_err(
+                "one seed or None and one action or None an arm",
+            ));
+        }
+        let work: Vec<Option<Work>> = seeds
+            .into_iter()
+            .zip(actions)
+            .map(|(s, a)| match (s, a) {
+                (Some(seed), _) => Some(Work::Reset(seed)),
+                (None, Some(a)) => Some(Work::Step(a)),
+                (None, None) => None,
+            })
+            .collect();
+        run_all(py, &mut self.sims, &work, |sim, w| match w {
+            Work::Reset(seed) => sim.reset(*seed),
+            Work::Step(a) => sim.step(a),
+        })
+    }
+
+    /// Every arm's last reading, as `Arm.observation()` gives one, concatenated: pixels,
+    /// status codes, targets.
+    fn observations(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
+        let (mut xy, mut st, mut tg) = (Vec::new(), Vec::new(), Vec::new());
+        for s in &self.sims {
+            xy.extend_from_slice(&s.lights);
+            st.extend_from_slice(&s.status);
+            tg.extend(s.target_of().0);
+        }
+        (xy, st, tg)
+    }
+
+    /// Arm `i`'s info, as `Arm.info()` gives it.
+    fn info<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyDict>> {
+        self.sims
+            .get(i)
+            .ok_or_else(|| PyValueError::new_err(format!("no arm {i}")))?
+            .info(py)
     }
 }
 
@@ -293,7 +599,5 @@ impl Arm {
 #[pyfunction]
 #[pyo3(signature = (name = "realistic"))]
 pub fn config_json(name: &str) -> PyResult<String> {
-    let cfg = SimConfig::resolve(Some(std::path::Path::new(name)))
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    serde_json::to_string(&cfg).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    serde_json::to_string(&resolve(name)?).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }

@@ -24,6 +24,8 @@ mod render;
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<arm::Arm>()?;
+    m.add_class::<arm::ArmVec>()?;
+    m.add_function(wrap_pyfunction!(arm::arm_from_state, m)?)?;
     m.add_class::<control::Ctrl>()?;
     m.add_function(wrap_pyfunction!(decode::decode_frames, m)?)?;
     m.add_function(wrap_pyfunction!(decode::decode_candump, m)?)?;

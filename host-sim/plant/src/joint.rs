@@ -22,6 +22,30 @@ use super::config::JointConfig;
 pub const PLAYS: usize = 6;
 const SHAPE: f64 = 1.1;
 
+/// `SHAPE.tanh()`, computed once by the same libm call (a literal could differ from this
+/// platform's `tanh` in the last bit: the runs' figures are reproduced bit for bit).
+fn tanh_shape() -> f64 {
+    static T: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *T.get_or_init(|| SHAPE.tanh())
+}
+
+/// `(-dt / tau).exp()`, the creep's decay over one step: the same every step of a joint, so
+/// the last one is kept (per thread) and the call made only when `dt` or `tau` changes.
+fn creep_decay(dt: f64, tau: f64) -> f64 {
+    use std::cell::Cell;
+    type Last = Cell<Option<(u64, u64, f64)>>;
+    thread_local!(static LAST: Last = const { Cell::new(None) });
+    let key = (dt.to_bits(), tau.to_bits());
+    LAST.with(|last| match last.get() {
+        Some((d, t, v)) if (d, t) == key => v,
+        _ => {
+            let v = (-dt / tau).exp();
+            last.set(Some((key.0, key.1, v)));
+            v
+        }
+    })
+}
+
 /// The 12-bit servo command for a normalised pressure difference.
 pub fn raw_of(p: f64) -> u16 {
     (((p.clamp(-1.0, 1.0) + 1.0) * 0.5 * 4095.0).round() as u16).min(4095)
@@ -102,7 +126,7 @@ impl Joint {
         // gap of the angle as a fraction of the range: the output span is 2 (in PI units),
         // so the gap fraction is weight_play * mean_gap / 2, corrected for the tanh shaping
         // at the centre (slope SHAPE / tanh(SHAPE)).
-        let slope = SHAPE / SHAPE.tanh();
+        let slope = SHAPE / tanh_shape();
         let weight_play = (2.0 * cfg.hysteresis_width / (mean_gap * slope)).min(0.95);
         let mut j = Joint {
             cfg: cfg.clone(),
@@ -194,7 +218,7 @@ impl Joint {
             let wp = (self.weight_play * self.effects.width_scale).min(0.95);
             (1.0 - wp) * self.pressure + wp * play
         };
-        let s = (SHAPE * y).tanh() / SHAPE.tanh();
+        let s = (SHAPE * y).tanh() / tanh_shape();
         let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
         let mid = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo);
@@ -205,7 +229,7 @@ impl Joint {
     /// pressures within `[-limit, limit]`, in its present state of drift and wear: the range
     /// the targets' poses come from when `limit` is the joint's `target_limit`.
     pub fn angle_range(&self, limit: f64) -> (f64, f64) {
-        let s = (SHAPE * limit).tanh() / SHAPE.tanh();
+        let s = (SHAPE * limit).tanh() / tanh_shape();
         let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
         let mid = 0.5 * (lo + hi) + self.offset;
         let half = 0.5 * (hi - lo) * self.gain * s;
@@ -225,7 +249,7 @@ impl Joint {
             // the time constant creep_tau_s
             self.creep -= fraction * (target - self.eq_last);
             self.eq_last = target;
-            self.creep *= (-dt / self.effects.creep_tau_s).exp();
+            self.creep *= creep_decay(dt, self.effects.creep_tau_s);
             target += self.creep;
         }
         let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
@@ -362,6 +386,25 @@ mod tests {
             peak > end + 0.05 * (end - start),
             "overshoot: peak {peak}, final {end}"
         );
+    }
+
+    /// The kept values are the libm calls' own, also when dt or tau change back and forth.
+    #[test]
+    fn kept_values_are_the_calls_results() {
+        assert_eq!(tanh_shape().to_bits(), SHAPE.tanh().to_bits());
+        for (dt, tau) in [
+            (0.001, 3.0),
+            (0.001, 2.0),
+            (0.01, 2.0),
+            (0.001, 3.0),
+            (0.001, 3.0),
+        ] {
+            assert_eq!(
+                creep_decay(dt, tau).to_bits(),
+                (-dt / tau).exp().to_bits(),
+                "dt {dt} tau {tau}"
+            );
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use super::config::SimConfig;
 use super::vec3::{add, angle_deg, cross, norm, scale, sub, unit, V3};
 
 /// The gripper's pose.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Pose {
     /// Gripper centre, between the fingers (mm).
     pub centre_mm: V3,

@@ -95,7 +95,7 @@ fn tangents(n: &V3) -> (V3, V3) {
 /// What the camera processor knows of where the markers are: the body of the trial's last
 /// capture, or only its centre (a centre capture seen by both cameras, before any capture
 /// of the lights in the trial).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Track {
     /// The centre light (mm).
     pub centre: V3,
@@ -105,7 +105,7 @@ pub struct Track {
 
 /// What the camera processor knows of where the markers are in a trial: the body of its
 /// last capture, and where the trial's targets (heard on the bus) put them.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Tracker {
     /// The body at the trial's last capture.
     pub last: Option<Track>,

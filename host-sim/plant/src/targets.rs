@@ -18,7 +18,7 @@ use crate::{Cylinder, Plant, PlantError as Error, Pose, Readings};
 type Result<T> = std::result::Result<T, Error>;
 
 /// A trial's target, with its ground truth.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Target {
     /// Lights p and q in both cameras, as measured (noisy): what the controller gets.
     pub v: [f32; 8],
@@ -91,6 +91,20 @@ impl HeldOut {
         n: usize,
         grasp: bool,
     ) -> Result<Vec<HeldOut>> {
+        Ok(HeldOut::set_realised(plant, rng, n, grasp)?
+            .into_iter()
+            .map(|(h, _)| h)
+            .collect())
+    }
+
+    /// [`HeldOut::set`] with each target as it was realised (the same draws, the same
+    /// targets): a caller that needs the targets now does not realise them again.
+    pub fn set_realised(
+        plant: &Plant,
+        rng: &mut impl RngCore,
+        n: usize,
+        grasp: bool,
+    ) -> Result<Vec<(HeldOut, Target)>> {
         let mut out = Vec::with_capacity(n);
         let mut draws = 0;
         while out.len() < n {
@@ -99,8 +113,8 @@ impl HeldOut {
                 return Err(Error::NoTarget(draws));
             }
             let h = HeldOut::draw(plant, rng);
-            if h.realise(plant, grasp).is_ok() {
-                out.push(h);
+            if let Ok(t) = h.realise(plant, grasp) {
+                out.push((h, t));
             }
         }
         Ok(out)

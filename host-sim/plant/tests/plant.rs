@@ -162,3 +162,22 @@ fn drift_and_wear_are_off_by_default_and_move_the_arm_when_on() {
         "wear moved the joint"
     );
 }
+
+/// `HeldOut::set_realised` draws what `HeldOut::set` draws, and its targets are what
+/// realising them again gives (the environment's reset relies on both).
+#[test]
+fn set_realised_is_set_with_its_targets() {
+    use trn_plant::targets::HeldOut;
+    let plant = Plant::new(&SimConfig::realistic(), 4).unwrap();
+    let mut a = Xoshiro256PlusPlus::seed_from_u64(9);
+    let mut b = Xoshiro256PlusPlus::seed_from_u64(9);
+    let set = HeldOut::set(&plant, &mut a, 3, false).unwrap();
+    let realised = HeldOut::set_realised(&plant, &mut b, 3, false).unwrap();
+    assert_eq!(set, realised.iter().map(|r| r.0).collect::<Vec<_>>());
+    for (h, t) in &realised {
+        assert_eq!(h.realise(&plant, false).unwrap(), *t);
+        assert!(t.v.iter().all(|x| x.is_finite()));
+    }
+    // both generators advanced alike: the next draws are the same
+    assert_eq!(HeldOut::draw(&plant, &mut a), HeldOut::draw(&plant, &mut b));
+}

@@ -1,7 +1,8 @@
 """trn_softarm: the TRN soft-arm project from Python.
 
 - :class:`SoftArmEnv`: a Gymnasium environment of the simulated SoftArm (registered as
-  ``trn_softarm/SoftArm-v0``; ``gym.make_vec`` gives its vector form).
+  ``trn_softarm/SoftArm-v0``; ``gym.make_vec`` gives its native vector form,
+  :class:`SoftArmVectorEnv`), :class:`FlatObservation` (its observation as one vector).
 - :class:`Controller`: the project's controllers (the TRN, the Broyden servo) on numpy
   arrays, to compare an agent with.
 - :func:`decode_candump`, :func:`decode_frames`: the CAN protocol's frames and candump logs
@@ -18,6 +19,8 @@ from .protocol import decode_candump, decode_frames
 __all__ = [
     "__version__",
     "SoftArmEnv",
+    "SoftArmVectorEnv",
+    "FlatObservation",
     "Controller",
     "run_episode",
     "decode_candump",
@@ -35,16 +38,20 @@ def register_envs():
     import gymnasium
 
     if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point="trn_softarm.env:SoftArmEnv")
+        gymnasium.register(
+            id=ENV_ID,
+            entry_point="trn_softarm.env:SoftArmEnv",
+            vector_entry_point="trn_softarm.env:SoftArmVectorEnv",
+        )
 
 
 def __getattr__(name):
     # the environment needs Gymnasium: imported when asked for, so the decoder and the
     # controllers work without it
-    if name == "SoftArmEnv":
-        from .env import SoftArmEnv
+    if name in ("SoftArmEnv", "SoftArmVectorEnv", "FlatObservation"):
+        from . import env
 
-        return SoftArmEnv
+        return getattr(env, name)
     raise AttributeError(f"module 'trn_softarm' has no attribute {name!r}")
 
 

@@ -1,4 +1,6 @@
-"""SoftArmEnv: reaching with the simulated SoftArm, as a Gymnasium environment.
+"""SoftArmEnv: reaching with the simulated SoftArm, as a Gymnasium environment;
+SoftArmVectorEnv: many arms stepped in one call (the registered id's vector entry point);
+FlatObservation: the observation as one float vector.
 
 An episode is one held-out trial of the project's evaluation: the target is where a twin
 arm (the same state of drift and wear) ended after its own random path, as both cameras saw
@@ -13,27 +15,119 @@ stereo consistency, a hidden light is filled in from the marker fit): one move.
 
 The observation is a dict: ``lights`` (pixels, one row a light in one camera; 0, 0 when not
 read), ``status`` (0 valid, 1 out of view, 2 occluded, 3 not detected, 4 estimated: placed by
-the camera processor, not read), ``target`` (the
-target's lights as measured, the same rows). The reward is minus the measured error (pixels:
-the distance of ``lights`` to ``target``), or minus the image diagonal when a light is not
-read. An episode terminates within ``tolerance_px`` and is truncated after ``max_moves``.
-``info`` has the noise-free truth: ``lights_true``, ``target_true``, ``error_true_px``,
-``pose_error_mm``/``_deg``, the commanded pressures, the joint angles, the simulated time.
+the camera processor, not read), ``target`` (the target's lights as measured, the same
+rows). The reward is minus the measured error (pixels: the distance of ``lights`` to
+``target``), or minus the image diagonal when a light is not read. An episode terminates
+when the measured error is at most ``tolerance_px`` and is truncated after ``max_moves``.
+``python/README.md`` documents every key of the observation and ``info``.
 """
+
+import importlib.util
+import os
+import sys
 
 import numpy as np
 import gymnasium as gym
 from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
 
-from ._native import Arm
+from ._native import Arm, ArmVec
 
 STATUS = ("valid", "out of view", "occluded", "not detected", "estimated")
 
 
-class SoftArmEnv(gym.Env):
-    """The simulated SoftArm reaching a held-out target (see the module)."""
+def _human_can_work():
+    """The live view needs the rerun SDK and a screen for its viewer."""
+    if importlib.util.find_spec("rerun") is None:
+        return False
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 2}
+
+# "human" is offered only where it can work (the [live] extra installed, a display)
+RENDER_MODES = ["rgb_array"] + (["human"] if _human_can_work() else [])
+
+
+class _Layout:
+    """The spaces of a stage on cameras of a size, and the conversions of the native
+    arm's lists to observations and infos (shared by the single and the vector env)."""
+
+    def __init__(self, stage, image_size, joints, tolerance_px, max_moves):
+        self.n = 4 if stage == 1 else 2
+        w, h = image_size
+        # readings lie in the image; a centroid's noise may carry one a little beyond it
+        margin = 16.0
+        self.low = np.tile(np.array([-margin, -margin], dtype=np.float32), (self.n, 1))
+        self.high = np.tile(np.array([w + margin, h + margin], dtype=np.float32), (self.n, 1))
+        self.observation_space = spaces.Dict(
+            {
+                "lights": spaces.Box(self.low, self.high, dtype=np.float32),
+                "status": spaces.MultiDiscrete(np.full(self.n, len(STATUS))),
+                "target": spaces.Box(self.low, self.high, dtype=np.float32),
+            }
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(joints,), dtype=np.float32)
+        self.diagonal = float(np.hypot(w, h))
+        self.tolerance_px = float(tolerance_px)
+        self.max_moves = int(max_moves)
+
+    def obs(self, lights, status, target, batch=None):
+        """An observation (``batch``: of that many arms, stacked) from the native lists."""
+        shape = (self.n, 2) if batch is None else (batch, self.n, 2)
+        clip = lambda v: np.clip(np.asarray(v, dtype=np.float32).reshape(shape), self.low, self.high)
+        return {
+            "lights": clip(lights),
+            "status": np.array(list(status), dtype=np.int64).reshape(shape[:-1]),
+            "target": clip(target),
+        }
+
+    @staticmethod
+    def info(info):
+        n = len(info["lights_true"]) // 2
+        info["lights_true"] = np.asarray(info["lights_true"], dtype=np.float64).reshape(n, 2)
+        info["target_true"] = np.asarray(info["target_true"], dtype=np.float64).reshape(n, 2)
+        for k in ("lights_true_in_view", "pressures", "joint_angles_deg", "gripper_mm", "target_gripper_mm"):
+            info[k] = np.asarray(info[k])
+        return info
+
+    def outcome(self, info):
+        """reward, terminated, truncated of a move whose info is ``info``."""
+        err = info["error_px"]
+        reward = -float(err) if err is not None else -self.diagonal
+        terminated = err is not None and err <= self.tolerance_px
+        truncated = not terminated and info["moves"] >= self.max_moves
+        return reward, terminated, truncated
+
+
+def _arm_seed(rng):
+    return int(rng.integers(0, 2**63 - 1))
+
+
+class SoftArmEnv(gym.Env):
+    """The simulated SoftArm reaching a held-out target (see the module).
+
+    ``config``: ``realistic`` (the project's default plant), ``ideal``, ``aging`` or a TOML
+    file of the simulator's configuration. The options below change the plant the project's
+    runs use only when set:
+
+    - ``dt_s``: the physics step (s) of the settle instead of the plant's 1 ms (at most
+      0.01): fewer steps, faster, at a small cost in fidelity (``python/README.md`` gives
+      the measured difference).
+    - ``persistent``: the arm carries over from one episode to the next (its time, drift,
+      wear, hysteresis history); ``reset(seed)`` then draws only a new target and start pose.
+      With ``config="aging"`` drift and wear build up across episodes.
+    - ``randomise``: a fraction r in [0, 0.5]: every plant built (each reset, or the first
+      one when persistent) has each joint's natural frequency, damping ratio, pressure lag
+      and hysteresis width multiplied by factors drawn uniformly from [1 - r, 1 + r], from
+      the episode's seed (``info["plant_seed"]``).
+
+    ``render_scale``: each camera image is drawn at 1/scale of its resolution.
+    """
+
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 2}
 
     def __init__(
         self,
@@ -43,60 +137,37 @@ class SoftArmEnv(gym.Env):
         tolerance_px=2.0,
         render_mode=None,
         render_scale=2,
+        dt_s=None,
+        persistent=False,
+        randomise=0.0,
     ):
-        """``config``: ``realistic`` (the project's default plant), ``ideal``, ``aging`` or a
-        TOML file of the simulator's configuration; ``render_scale``: each camera image is
-        drawn at 1/scale of its resolution."""
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
-        self._arm = Arm(config, stage)
+            raise ValueError(
+                f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}"
+                + ("" if "human" in RENDER_MODES else " (human needs the [live] extra and a display)")
+            )
+        self._arm = Arm(config, stage, dt_s, bool(persistent), float(randomise))
         self.stage = stage
         self.config = config
         self.max_moves = int(max_moves)
         self.tolerance_px = float(tolerance_px)
         self.render_mode = render_mode
         self.render_scale = int(render_scale)
-        n = 4 if stage == 1 else 2
-        w, h = self._arm.image_size
-        # readings lie in the image; a centroid's noise may carry one a little beyond it
-        margin = 16.0
-        low = np.tile(np.array([-margin, -margin], dtype=np.float32), (n, 1))
-        high = np.tile(np.array([w + margin, h + margin], dtype=np.float32), (n, 1))
-        self.observation_space = spaces.Dict(
-            {
-                "lights": spaces.Box(low, high, dtype=np.float32),
-                "status": spaces.MultiDiscrete(np.full(n, len(STATUS))),
-                "target": spaces.Box(low, high, dtype=np.float32),
-            }
-        )
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(self._arm.joints,), dtype=np.float32)
-        self._diagonal = float(np.hypot(w, h))
+        self._layout = _Layout(stage, self._arm.image_size, self._arm.joints, tolerance_px, max_moves)
+        self.observation_space = self._layout.observation_space
+        self.action_space = self._layout.action_space
         self._live = None
-        self._low, self._high = low, high
 
     def _obs(self):
-        lights, status, target = self._arm.observation()
-        n = len(status)
-        clip = lambda v: np.clip(np.asarray(v, dtype=np.float32).reshape(n, 2), self._low, self._high)
-        return {
-            "lights": clip(lights),
-            "status": np.array(list(status), dtype=np.int64),
-            "target": clip(target),
-        }
+        return self._layout.obs(*self._arm.observation())
 
     def _info(self):
-        info = self._arm.info()
-        n = len(info["lights_true"]) // 2
-        info["lights_true"] = np.asarray(info["lights_true"], dtype=np.float64).reshape(n, 2)
-        info["target_true"] = np.asarray(info["target_true"], dtype=np.float64).reshape(n, 2)
-        for k in ("lights_true_in_view", "pressures", "joint_angles_deg", "gripper_mm", "target_gripper_mm"):
-            info[k] = np.asarray(info[k])
-        return info
+        return _Layout.info(self._arm.info())
 
     def reset(self, *, seed=None, options=None):
         """A new held-out target and start pose; reproducible from ``seed``."""
         super().reset(seed=seed)
-        self._arm.reset(int(self.np_random.integers(0, 2**63 - 1)))
+        self._arm.reset(_arm_seed(self.np_random))
         obs, info = self._obs(), self._info()
         if self.render_mode == "human":
             self._show(obs, info, reward=None)
@@ -107,10 +178,7 @@ class SoftArmEnv(gym.Env):
         action = np.asarray(action, dtype=np.float32).reshape(self.action_space.shape)
         self._arm.step(action.tolist())
         obs, info = self._obs(), self._info()
-        err = info["error_px"]
-        reward = -float(err) if err is not None else -self._diagonal
-        terminated = err is not None and err <= self.tolerance_px
-        truncated = not terminated and info["moves"] >= self.max_moves
+        reward, terminated, truncated = self._layout.outcome(info)
         if self.render_mode == "human":
             self._show(obs, info, reward)
         return obs, reward, terminated, truncated, info
@@ -121,8 +189,6 @@ class SoftArmEnv(gym.Env):
         (rerun) is updated by every reset and step; nothing is returned."""
         if self.render_mode == "rgb_array":
             return self.camera_images()
-        if self.render_mode == "human":
-            return None
         return None
 
     def camera_images(self):
@@ -144,3 +210,116 @@ class SoftArmEnv(gym.Env):
 
     def close(self):
         self._live = None
+
+    def __getstate__(self):
+        # the arm pickles its whole state; a live view is a connection, not state
+        state = self.__dict__.copy()
+        state["_live"] = None
+        return state
+
+
+class SoftArmVectorEnv(VectorEnv):
+    """``num_envs`` arms stepped in one call, in parallel with the GIL released (the
+    ``vector_entry_point`` of ``trn_softarm/SoftArm-v0``: ``gym.make_vec(id, num_envs=N)``).
+
+    Arm ``i`` behaves as ``SoftArmEnv(**kwargs)`` would in ``SyncVectorEnv`` with the same
+    seeds (``reset(seed=s)`` seeds arm ``i`` with ``s + i``); an arm whose episode ended is
+    reset by the next ``step`` (``AutoresetMode.NEXT_STEP``: its reward is 0, its
+    observation and info those of the reset). Takes the arguments of :class:`SoftArmEnv`
+    except the rendering ones.
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        num_envs=2,
+        stage=1,
+        config="realistic",
+        max_moves=20,
+        tolerance_px=2.0,
+        dt_s=None,
+        persistent=False,
+        randomise=0.0,
+        render_mode=None,
+    ):
+        if render_mode is not None:
+            raise ValueError("the native vector environment does not render; use SoftArmEnv")
+        self._arms = ArmVec(int(num_envs), config, stage, dt_s, bool(persistent), float(randomise))
+        self.num_envs = int(num_envs)
+        one = Arm(config, stage, dt_s)
+        self._layout = _Layout(stage, one.image_size, one.joints, tolerance_px, max_moves)
+        self.single_observation_space = self._layout.observation_space
+        self.single_action_space = self._layout.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.render_mode = None
+        self._rngs = [None] * self.num_envs
+        self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+
+    def _seed_for(self, i, seed=None):
+        if seed is not None or self._rngs[i] is None:
+            self._rngs[i], _ = seeding.np_random(seed)
+        return _arm_seed(self._rngs[i])
+
+    def _obs(self):
+        return self._layout.obs(*self._arms.observations(), batch=self.num_envs)
+
+    def reset(self, *, seed=None, options=None):
+        """Resets every arm (or those of ``options["reset_mask"]``); ``seed``: an int (arm
+        ``i`` gets ``seed + i``), a list of ints or Nones, or None."""
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"{len(seeds)} seeds for {self.num_envs} environments")
+        mask = np.ones(self.num_envs, dtype=np.bool_)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=np.bool_)
+        arm_seeds = [self._seed_for(i, seeds[i]) if mask[i] else None for i in range(self.num_envs)]
+        self._arms.run(arm_seeds, [None] * self.num_envs)
+        infos = {}
+        for i in np.flatnonzero(mask):
+            infos = self._add_info(infos, _Layout.info(self._arms.info(int(i))), int(i))
+        self._autoreset[mask] = False
+        return self._obs(), infos
+
+    def step(self, actions):
+        """One move of every arm (or the reset of an arm whose episode ended)."""
+        actions = np.asarray(actions, dtype=np.float32).reshape(self.action_space.shape)
+        seeds = [self._seed_for(i) if self._autoreset[i] else None for i in range(self.num_envs)]
+        acts = [None if self._autoreset[i] else actions[i].tolist() for i in range(self.num_envs)]
+        self._arms.run(seeds, acts)
+        rewards = np.zeros(self.num_envs, dtype=np.float64)
+        terminated = np.zeros(self.num_envs, dtype=np.bool_)
+        truncated = np.zeros(self.num_envs, dtype=np.bool_)
+        infos = {}
+        for i in range(self.num_envs):
+            info = _Layout.info(self._arms.info(i))
+            if not self._autoreset[i]:
+                rewards[i], terminated[i], truncated[i] = self._layout.outcome(info)
+            infos = self._add_info(infos, info, i)
+        self._autoreset = terminated | truncated
+        return self._obs(), rewards, terminated, truncated, infos
+
+
+class FlatObservation(gym.ObservationWrapper):
+    """The observation as one float32 vector, for learners that take a ``Box`` (SB3's
+    ``VecNormalize`` with its defaults, MLP policies): ``lights`` (n x 2, row by row), then
+    ``target`` (n x 2), then each light's status one-hot (n x 5, in the order of
+    ``STATUS``). Stage 1: 8 + 8 + 20 = 36 values; stage 2: 4 + 4 + 10 = 18."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        d = env.observation_space
+        self._n = d["lights"].shape[0]
+        k = len(STATUS)
+        low = np.concatenate([d["lights"].low.ravel(), d["target"].low.ravel(), np.zeros(self._n * k, np.float32)])
+        high = np.concatenate([d["lights"].high.ravel(), d["target"].high.ravel(), np.ones(self._n * k, np.float32)])
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+
+    def observation(self, obs):
+        onehot = np.zeros((self._n, len(STATUS)), dtype=np.float32)
+        onehot[np.arange(self._n), obs["status"]] = 1.0
+        return np.concatenate([obs["lights"].ravel(), obs["target"].ravel(), onehot.ravel()]).astype(np.float32)

@@ -1,0 +1,92 @@
+"""Environment steps per second: SoftArm-v0 (the lab's plant, and the ``dt_s`` option),
+single and as the native vector env, beside MuJoCo's Reacher-v5 when MuJoCo is installed.
+
+    python python/examples/bench_steps.py [--seconds 3] [--num-envs 2] [--out FILE.md]
+
+Random actions, episodes reset as they end (the reset counts: it is part of stepping an
+environment); each figure is environment steps (moves) per second of wall-clock time in
+this process. The single and vector figures are measured in one run, so they compare on
+one machine under one load.
+"""
+
+import argparse
+import os
+import time
+
+import numpy as np
+import gymnasium as gym
+
+import trn_softarm  # noqa: F401  (registers trn_softarm/SoftArm-v0)
+
+
+def single(env, seconds, seed=0):
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        n += 1
+        if terminated or truncated:
+            env.reset()
+    rate = n / (time.perf_counter() - t0)
+    env.close()
+    return rate
+
+
+def vector(envs, seconds, seed=0):
+    envs.action_space.seed(seed)
+    envs.reset(seed=seed)
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        envs.step(envs.action_space.sample())  # ended episodes reset on the next step
+        n += envs.num_envs
+    rate = n / (time.perf_counter() - t0)
+    envs.close()
+    return rate
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=3.0, help="per measurement")
+    ap.add_argument("--num-envs", type=int, default=2, help="arms of the vector env")
+    ap.add_argument("--fast-dt", type=float, default=0.01, help="dt_s of the fast rows")
+    ap.add_argument("--out", help="also write the table here (markdown)")
+    a = ap.parse_args()
+    s, n, fast = a.seconds, a.num_envs, {"dt_s": a.fast_dt}
+    sid = "trn_softarm/SoftArm-v0"
+    rows = []
+    try:
+        import mujoco  # noqa: F401
+
+        rows.append(("Reacher-v5", "single", single(gym.make("Reacher-v5"), s)))
+        rows.append(("Reacher-v5", f"sync x{n}", vector(gym.make_vec("Reacher-v5", num_envs=n, vectorization_mode="sync"), s)))
+    except ImportError:
+        print("MuJoCo is not installed: Reacher-v5 not measured (pip install 'gymnasium[mujoco]')")
+    rows.append(("SoftArm-v0", "single", single(gym.make(sid), s)))
+    rows.append(("SoftArm-v0", f"native x{n}", vector(gym.make_vec(sid, num_envs=n), s)))
+    rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", "single", single(gym.make(sid, **fast), s)))
+    rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", f"native x{n}", vector(gym.make_vec(sid, num_envs=n, **fast), s)))
+    ref = {mode.split()[0]: r for env, mode, r in rows if env == "Reacher-v5"}
+    singles = {env: r for env, mode, r in rows if mode == "single"}
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines = [
+        f"{os.cpu_count()} cores, load average {load:.1f} at the end, {s:g} s a row,"
+        f" {n} environments a vector; random actions, resets included.",
+        "",
+        "| environment | mode | steps/s | x its single | x Reacher-v5 (same mode) |",
+        "|---|---|---:|---:|---:|",
+    ]
+    for env, mode, r in rows:
+        kind = mode.split()[0]
+        vs_ref = ref.get("sync" if kind == "native" else kind)
+        lines.append(f"| {env} | {mode} | {r:,.0f} | {r / singles[env]:.2f} | "
+                     + (f"{r / vs_ref:.3f} |" if vs_ref else "- |"))
+    print("\n".join(lines))
+    if a.out:
+        with open(a.out, "w") as f:
+            f.write("# Environment steps per second\n\nWritten by `python python/examples/bench_steps.py"
+                    f" --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5 in one run).\n\n")
+            f.write("\n".join(lines) + "\n")
+
+if __name__ == "__main__":
+    main()

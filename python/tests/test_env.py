@@ -1,0 +1,215 @@
+"""The Gymnasium environment as a learner meets it: the registered id passes check_env, its
+state pickles bit for bit, it terminates at its tolerance, the native vector env steps as
+Gymnasium's own SyncVectorEnv would, the options (dt_s, persistent, randomise) do what the
+README says, and the flat observation suits SB3's VecNormalize (when SB3 is installed).
+
+    pytest python/tests
+"""
+
+import copy
+import importlib.util
+import pickle
+
+import numpy as np
+import pytest
+
+import gymnasium as gym
+from gymnasium.utils.env_checker import check_env, data_equivalence
+
+import trn_softarm
+from trn_softarm import FlatObservation, SoftArmEnv, SoftArmVectorEnv
+from trn_softarm._native import Arm
+
+
+def steps(env, actions):
+    """(obs, reward, terminated, truncated, info) of each action in turn."""
+    return [env.step(a) for a in actions]
+
+
+def random_actions(space, n, seed):
+    space.seed(seed)
+    return [space.sample() for _ in range(n)]
+
+
+def test_check_env_on_the_registered_id():
+    env = gym.make(trn_softarm.ENV_ID)
+    check_env(env.unwrapped)
+    check_env(gym.make(trn_softarm.ENV_ID, stage=2, config="ideal").unwrapped)
+
+
+def test_human_mode_offered_only_when_it_can_work():
+    modes = SoftArmEnv.metadata["render_modes"]
+    assert "rgb_array" in modes
+    if importlib.util.find_spec("rerun") is None:
+        assert "human" not in modes
+    if "human" not in modes:
+        with pytest.raises(ValueError, match="human"):
+            SoftArmEnv(render_mode="human")
+
+
+@pytest.mark.parametrize("restore", ["pickle", "deepcopy"])
+def test_saved_state_restores_bit_for_bit(restore):
+    env = SoftArmEnv()
+    env.reset(seed=11)
+    for a in random_actions(env.action_space, 3, seed=1):
+        env.step(a)
+    saved = pickle.loads(pickle.dumps(env)) if restore == "pickle" else copy.deepcopy(env)
+    actions = random_actions(env.action_space, 6, seed=2)
+    # the next episode too: the copy's seed generator was saved with it
+    a, b = steps(env, actions), steps(saved, actions)
+    a.append(env.reset()), b.append(saved.reset())
+    for x, y in zip(a, b):
+        assert data_equivalence(x, y, exact=True), (x, y)
+    # and the copy is its own arm: stepping it leaves the original where it was
+    before = env._arm.state()
+    saved.step(actions[0])
+    assert env._arm.state() == before
+
+
+def test_a_bad_state_is_refused():
+    with pytest.raises(ValueError, match="state"):
+        Arm.from_state(b"\x01\x02\x03")
+
+
+def test_terminates_exactly_at_the_tolerance():
+    # the tolerance: the median error random moves reach, so both outcomes occur
+    probe = SoftArmEnv(config="ideal", tolerance_px=-1.0, max_moves=5)
+    probe.reset(seed=3)
+    errors = []
+    for a in random_actions(probe.action_space, 30, seed=4):
+        _, _, terminated, truncated, info = probe.step(a)
+        assert not terminated
+        if info["error_px"] is not None:
+            errors.append(info["error_px"])
+        if truncated:
+            probe.reset()
+    tol = float(np.median(errors))
+    env = SoftArmEnv(config="ideal", tolerance_px=tol, max_moves=5)
+    env.reset(seed=3)
+    outcomes = []
+    for a in random_actions(env.action_space, 30, seed=4):
+        _, reward, terminated, truncated, info = env.step(a)
+        err = info["error_px"]
+        assert terminated == (err is not None and err <= tol)
+        assert truncated == (not terminated and info["moves"] >= 5)
+        assert reward == (-err if err is not None else -env._layout.diagonal)
+        outcomes.append(terminated)
+        if terminated or truncated:
+            env.reset()
+    assert any(outcomes) and not all(outcomes), outcomes
+
+
+def test_the_vector_entry_point_is_native():
+    envs = gym.make_vec(trn_softarm.ENV_ID, num_envs=2)
+    assert isinstance(envs.unwrapped, SoftArmVectorEnv)
+    obs, _ = envs.reset(seed=0)
+    assert obs in envs.observation_space and obs["lights"].shape == (2, 4, 2)
+
+
+@pytest.mark.parametrize("stage", [1, 2])
+def test_native_vector_env_steps_as_sync_vector_env(stage):
+    kw = dict(stage=stage, config="ideal", max_moves=3)
+    native = SoftArmVectorEnv(num_envs=3, **kw)
+    sync = gym.vector.SyncVectorEnv([lambda: SoftArmEnv(**kw) for _ in range(3)])
+    assert native.single_observation_space == sync.single_observation_space
+    assert native.action_space == sync.action_space
+    a, b = native.reset(seed=5), sync.reset(seed=5)
+    assert data_equivalence(a, b, exact=True)
+    resets = 0
+    for actions in random_actions(native.action_space, 8, seed=6):
+        a, b = native.step(actions), sync.step(actions)
+        assert a[0] in native.observation_space
+        assert data_equivalence(a, b, exact=True), (a, b)
+        resets += int(np.sum(a[2] | a[3]))
+    assert resets >= 3, "episodes ended and were reset on the next step"
+    # a seed list, and a reset of some arms only
+    a = native.reset(seed=[7, None, 9])
+    b = sync.reset(seed=[7, None, 9])
+    assert data_equivalence(a[0]["target"][[0, 2]], b[0]["target"][[0, 2]], exact=True)
+    with pytest.raises(ValueError):
+        native.step(np.zeros((2, native.single_action_space.shape[0])))
+
+
+def test_a_bad_action_is_a_value_error():
+    env = SoftArmEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError):
+        env._arm.step([0.0, float("nan"), 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError):
+        env._arm.step([0.0, 0.0])
+
+
+def test_dt_option_is_faithful_and_bounded():
+    # 10 ms instead of 1 ms: the lights' true pixels within a pixel of the lab's plant
+    lab, fast = Arm("realistic", 1), Arm("realistic", 1, 0.01)
+    rng = np.random.default_rng(0)
+    diffs = []
+    for episode in range(6):
+        lab.reset(episode), fast.reset(episode)
+        for _ in range(4):
+            act = rng.uniform(-1, 1, 5).tolist()
+            lab.step(act), fast.step(act)
+            i, j = lab.info(), fast.info()
+            seen = np.array(i["lights_true_in_view"]) & np.array(j["lights_true_in_view"])
+            d = np.array(i["lights_true"]).reshape(-1, 2) - np.array(j["lights_true"]).reshape(-1, 2)
+            diffs += list(np.hypot(*d.T)[seen])
+    assert 0 < np.median(diffs) < 0.5 and np.percentile(diffs, 90) < 1.0, np.percentile(diffs, [50, 90])
+    with pytest.raises(ValueError, match="dt_s"):
+        SoftArmEnv(dt_s=0.05)
+
+
+def test_persistent_arm_ages_across_resets():
+    env = SoftArmEnv(config="aging", persistent=True, max_moves=2)
+    _, first = env.reset(seed=1)
+    for a in random_actions(env.action_space, 2, seed=1):
+        _, _, _, _, info = env.step(a)
+    _, again = env.reset(seed=2)
+    # the clock goes on (the target's twin and the start move add to it), the plant is the same
+    assert again["time_s"] > info["time_s"] > first["time_s"]
+    assert again["plant_seed"] == first["plant_seed"]
+    fresh = SoftArmEnv(config="aging", max_moves=2)
+    _, f1 = fresh.reset(seed=1)
+    _, f2 = fresh.reset(seed=2)
+    assert f2["time_s"] == f1["time_s"] and f2["plant_seed"] != f1["plant_seed"]
+
+
+def test_randomised_plant_is_reproducible_from_its_seed():
+    def first_move(randomise, seed):
+        env = SoftArmEnv(config="ideal", randomise=randomise)
+        env.reset(seed=seed)
+        return env.step(np.full(5, 0.4, dtype=np.float32))[4]["joint_angles_deg"]
+
+    plain, r1, r1_again, r2 = first_move(0.0, 1), first_move(0.3, 1), first_move(0.3, 1), first_move(0.3, 2)
+    assert np.array_equal(r1, r1_again)
+    assert not np.allclose(r1, plain, atol=1e-3)
+    assert not np.array_equal(r1, r2)
+    with pytest.raises(ValueError, match="randomise"):
+        SoftArmEnv(randomise=0.9)
+    # a physics step too coarse for the fastest joint it may draw (2 pi f dt <= 0.2) is
+    # refused when the env is made, not at some later reset
+    with pytest.raises(ValueError, match="randomise 0.5.*natural_freq_hz"):
+        SoftArmEnv(dt_s=0.01, randomise=0.5)
+    env = SoftArmEnv(dt_s=0.01, randomise=0.2)
+    for seed in range(5):
+        env.reset(seed=seed)
+
+
+def test_flat_observation():
+    env = FlatObservation(SoftArmEnv(config="ideal"))
+    check_env(env)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (36,) and obs.dtype == np.float32 and obs in env.observation_space
+    assert np.array_equal(obs[16:].reshape(4, 5).sum(axis=1), np.ones(4))
+    assert FlatObservation(SoftArmEnv(stage=2)).observation_space.shape == (18,)
+
+
+def test_vecnormalize_takes_the_flat_observation():
+    sb3 = pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed")
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    venv = VecNormalize(DummyVecEnv([lambda: FlatObservation(SoftArmEnv(config="ideal", max_moves=3))] * 2))
+    venv.seed(0)
+    venv.reset()
+    for _ in range(4):
+        obs, rewards, dones, infos = venv.step(np.zeros((2, 5), dtype=np.float32))
+    assert obs.shape == (2, 36) and np.all(np.isfinite(obs)), sb3.__version__
