@@ -26,8 +26,8 @@ fn the_v3_profile_of_the_conformance_suite_passes() {
         "{not_applicable:#?}"
     );
     // the tables' status and chunk, the unsupported law, the late duplicate, the repeated
-    // grasp, the save, the erase without a nonce, the guard's eight, the write's three
-    assert_eq!(not_applicable.len(), 18, "{not_applicable:#?}");
+    // grasp, the save, the erase without a nonce, the guard's ten, the write's three
+    assert_eq!(not_applicable.len(), 20, "{not_applicable:#?}");
     // pre-emption is version 3's behaviour too: it runs and passes
     assert!(r
         .conformance
@@ -46,5 +46,14 @@ fn the_v3_profile_of_the_conformance_suite_passes() {
     let r4 = trn_conformance::run_quietly(&spec).unwrap();
     assert_eq!(r4.controller_protocol, Some(4));
     assert_eq!(r4.conformance.len(), r.conformance.len());
-    assert!(r4.conformance.iter().all(|c| c.passed && !c.skipped));
+    assert!(r4.conformance.iter().all(|c| c.passed));
+    // but the guard's check of tables that never learn: its tables learned
+    let skipped: Vec<&str> = r4
+        .conformance
+        .iter()
+        .filter(|c| c.skipped)
+        .map(|c| c.name.as_str())
+        .collect();
+    assert_eq!(skipped.len(), 1, "{skipped:#?}");
+    assert!(skipped[0].starts_with("On tables that never learn"));
 }
