@@ -244,3 +244,75 @@ fn the_checks_of_verify_come_in_the_order_the_specification_gives() {
         Err(Error::CheckpointLength { .. })
     ));
 }
+
+/// One line of SPEC 3.5's image test vector: the text after `key:`.
+fn spec_vector_line(key: &str) -> String {
+    let spec = include_str!("../../protocol/SPEC.md");
+    let from = spec
+        .find("**Image test vector**")
+        .expect("SPEC.md 3.5 has an image test vector");
+    let block = &spec[from..];
+    let start = block.find("```text\n").unwrap() + "```text\n".len();
+    let end = start + block[start..].find("```").unwrap();
+    block[start..end]
+        .lines()
+        .find_map(|l| l.strip_prefix(key).map(|v| v.trim().to_string()))
+        .unwrap_or_else(|| panic!("the vector has no line {key}"))
+}
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn the_specifications_image_vector_is_what_the_code_verifies_restores_and_saves() {
+    use trn_controller::presets::{configure, ImageSize};
+    // the configuration the vector names: 3.2.1's (the project preset, no ablation, the TRN,
+    // 1024 x 768 images), whose fingerprint is 0xB50EEF13
+    let cfg = configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
+    assert_eq!(cfg.fingerprint(), 0xB50E_EF13);
+    let h = Header {
+        version: 2,
+        shapes: [1000, 8, 5, 200, 4, 3],
+        t1: 300,
+        t2: 20_000,
+        preset: 0,
+        ablation: 0,
+        fingerprint: cfg.fingerprint(),
+    };
+    let vector: Vec<f32> = (0..56_800)
+        .map(|i| ((i % 256) as f32 - 128.0) / 16.0)
+        .collect();
+    let image = write_image(&h, &vector);
+    let (_, values_at) = read_header(&image);
+    assert_eq!(
+        image[..values_at],
+        unhex(&spec_vector_line("header:"))[..],
+        "fields 1 to 9"
+    );
+    assert_eq!(
+        image[values_at..values_at + 32],
+        unhex(&spec_vector_line("values:"))[..]
+    );
+    assert_eq!(
+        image.len(),
+        spec_vector_line("length:").parse::<usize>().unwrap()
+    );
+    let crc = u32::from_str_radix(spec_vector_line("crc:").trim_start_matches("0x"), 16).unwrap();
+    let n = image.len();
+    assert_eq!(u32::from_le_bytes(image[n - 4..].try_into().unwrap()), crc);
+    assert_eq!(checkpoint::crc32(&image[..n - 4]), crc);
+    // the code takes it as the text says, and writes the same bytes back
+    let got = checkpoint::verify(&image).unwrap();
+    assert_eq!(
+        (got.t1, got.t2, got.config_fingerprint),
+        (300, 20_000, 0xB50E_EF13)
+    );
+    let mut c = Box::new(Controller::new(cfg));
+    checkpoint::restore(&mut c, &image).unwrap();
+    assert!(values(&c) == vector);
+    assert!(saved(&c, Provenance::of(Preset::Project, Ablation::None)) == image);
+}

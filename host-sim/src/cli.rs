@@ -121,8 +121,9 @@ pub struct StudyArgs {
     /// (default: out/NAME).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write the study's JSON here instead (.json).
-    #[arg(long)]
+    /// Write the study's JSON here instead (.json). Not with `--shard`: a shard writes its
+    /// run files only, and `trn merge --report` writes the JSON of every shard's.
+    #[arg(long, conflicts_with = "shard")]
     pub report: Option<PathBuf>,
     /// Parallelism, resume, shard, run folder.
     #[command(flatten)]
@@ -414,8 +415,10 @@ pub struct CompareArgs {
     /// default; `ideal`; `aging`; `realistic-aging`).
     #[arg(long)]
     pub config: Option<String>,
-    /// Write every configuration's figures over the seeds as JSON here (.json).
-    #[arg(long)]
+    /// Write every configuration's figures over the seeds as JSON here (.json). Not with
+    /// `--shard`: a shard writes its run files only, and `trn merge --report` writes the
+    /// JSON of every shard's.
+    #[arg(long, conflicts_with = "shard")]
     pub report: Option<PathBuf>,
     /// Where plants made of keys and the run folder go.
     #[arg(long, default_value = "out/compare")]
@@ -469,6 +472,35 @@ mod tests {
                     "{name} missing from trn {sub} --help"
                 );
             }
+        }
+    }
+
+    /// A study's `--report` with `--shard` is refused (a shard writes no JSON: it would be
+    /// ignored), naming both options; either alone is taken.
+    #[test]
+    fn a_shard_refuses_a_report() {
+        for sub in ["compare", "study"] {
+            let with = |extra: &[&str]| {
+                let mut args = vec!["trn", sub];
+                if sub == "study" {
+                    args.push("s.toml");
+                }
+                args.extend(extra);
+                Cli::try_parse_from(args)
+            };
+            let err = with(&["--shard", "0/2", "--report", "x.json"]).unwrap_err();
+            assert_eq!(
+                err.kind(),
+                clap::error::ErrorKind::ArgumentConflict,
+                "{sub}"
+            );
+            let text = err.to_string();
+            assert!(
+                text.contains("--report") && text.contains("--shard"),
+                "{sub}: {text}"
+            );
+            assert!(with(&["--shard", "0/2"]).is_ok(), "{sub}");
+            assert!(with(&["--report", "x.json"]).is_ok(), "{sub}");
         }
     }
 

@@ -74,15 +74,11 @@ const SMALL: [&str; 10] = [
 fn compare(dir: &Path, name: &str, extra: &[&str]) -> Output {
     let (runs, report) = (dir.join(name), dir.join(format!("{name}.json")));
     let mut args = SMALL.to_vec();
-    args.extend([
-        "2",
-        "--runs",
-        s(&runs),
-        "--report",
-        s(&report),
-        "--out",
-        s(dir),
-    ]);
+    args.extend(["2", "--runs", s(&runs), "--out", s(dir)]);
+    // a shard writes no report (`--report` with `--shard` is refused)
+    if !extra.contains(&"--shard") {
+        args.extend(["--report", s(&report)]);
+    }
     args.extend(extra);
     trn(&args)
 }
@@ -103,6 +99,25 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
         );
         assert!(out.stdout.is_empty(), "a shard prints no table");
     }
+    // a shard's report is refused before anything runs, naming both options
+    let report = dir.join("shard.json");
+    let mut args = SMALL.to_vec();
+    args.extend([
+        "2",
+        "--out",
+        s(&dir),
+        "--shard",
+        "0/2",
+        "--report",
+        s(&report),
+    ]);
+    let out = trn(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--report") && err.contains("--shard"),
+        "{err}"
+    );
+    assert!(!report.exists());
     let merged = dir.join("merged.json");
     let out = trn(&["merge", s(&dir.join("shards")), "--report", s(&merged)]);
     ok(&out);

@@ -1,8 +1,10 @@
 //! After the session (SPEC 3.1, 3.4): the controller's tables learned in it, and no
 //! configuration is in force after `ModeChange{Idle}`, so trials are refused; a re-seed
 //! without a nonce is refused, and so is a wrong, a stale and a replayed nonce; a fresh one
-//! is accepted. Not applicable to a controller that ended its loop at `Idle` (3.1 allows
-//! it) or whose tables never learn (a law that does not train, 3.6 item 13).
+//! is accepted, a nonce of another operation is refused. Not applicable to a controller that
+//! ended its loop at `Idle` (3.1 allows it). On tables that never learn (a law that does not
+//! train, 3.6 item 13) the guard has nothing to protect: it still answers `GuardRequest`,
+//! and a re-seed needs no nonce (3.4), which the last check checks instead.
 
 use std::time::Duration;
 
@@ -19,16 +21,21 @@ use trn_bench::journal::{echoed, errors, missing_error, refused_unacknowledged, 
 use trn_bench::{LabError, Result};
 
 /// The checks of this part, in order (reported as not applicable together).
-const CHECKS: [&str; 8] = [
+const CHECKS: [&str; 10] = [
     "After ModeChange{Idle}, a target on tables that learned gives SESSION_REQUIRED and starts nothing",
     "A re-seed of learned tables without a nonce (SessionConfig, keep_tables: false) is refused (GUARD_REFUSED 0x101) and not acknowledged",
     "After the refused re-seed, a target gives SESSION_REQUIRED and starts nothing",
     "GuardRequest{Reseed} is answered with GuardNonce{Reseed} and a non-zero nonce",
     "A wrong nonce is refused (GUARD_REFUSED 0x104) and not acknowledged",
+    "A nonce of another operation (GuardNonce{TableWrite}) presented with a re-seed is refused (GUARD_REFUSED 0x104, the re-seed's op) and not acknowledged",
     "A stale nonce (presented after its window, counted in the controller's heartbeats) is refused (GUARD_REFUSED 0x102) and not acknowledged",
     "A fresh nonce is accepted: ConfirmedSessionConfig acknowledged with its SessionConfig",
     "A replayed confirmation (its nonce used, the tables learned again) is refused (GUARD_REFUSED 0x103) and not acknowledged",
+    "On tables that never learn (a law that does not train), GuardRequest{Reseed} is answered (GuardNonce{Reseed} or GUARD_REFUSED 0x105) and a re-seed without a nonce is acknowledged",
 ];
+
+/// The checks of learned tables (all but the last).
+const LEARNED: usize = CHECKS.len() - 1;
 
 fn heartbeats(j: &[Envelope]) -> usize {
     j.iter()
@@ -47,8 +54,9 @@ impl<P> Suite<'_, P>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
+    /// Skips the checks of learned tables from `first` on.
     fn skip_from(&mut self, first: usize, why: &str) {
-        self.skip_each(&CHECKS[first..], why);
+        self.skip_each(&CHECKS[first..LEARNED], why);
     }
 
     /// True while the controller still beats after `Idle`; false when it went silent (it
@@ -127,7 +135,14 @@ where
 
     /// A nonce for a re-seed, or `None` (the problems said).
     fn reseed_nonce(&mut self) -> Result<(Option<GuardNonce>, Vec<String>, Vec<Envelope>)> {
-        let op = GuardOp::Reseed;
+        self.nonce_for(GuardOp::Reseed)
+    }
+
+    /// A nonce for `op`, or `None` (the problems said).
+    fn nonce_for(
+        &mut self,
+        op: GuardOp,
+    ) -> Result<(Option<GuardNonce>, Vec<String>, Vec<Envelope>)> {
         let answered = |j: &[Envelope]| {
             nonce_of(j).is_some() || errors(j).iter().any(|e| e.code == codes::GUARD_REFUSED)
         };
@@ -146,11 +161,11 @@ where
     /// configuration, of which a re-seed with another seed is asked.
     pub(super) fn after_idle(&mut self, session: SessionConfig) -> Result<()> {
         if self.v3 {
-            self.skip_from(0, super::V4_ONLY);
+            self.skip_each(&CHECKS, super::V4_ONLY);
             return Ok(());
         }
         if !self.still_running()? {
-            self.skip_from(0, "not applicable: the controller ended its loop at ModeChange{Idle} (SPEC 3.1 allows it)");
+            self.skip_each(&CHECKS, "not applicable: the controller ended its loop at ModeChange{Idle} (SPEC 3.1 allows it)");
             return Ok(());
         }
         let ask = StoreCommand {
@@ -166,8 +181,44 @@ where
         let learned = j.iter().any(|e| matches!(e.msg, Message::TablesStatus(s) if s.event == TablesEvent::Status && (s.steps1 > 0 || s.steps2 > 0)));
         if !learned {
             self.skip_from(0, "not applicable: its tables did not learn in the session (a law that does not train, SPEC 3.6 item 13)");
-            return Ok(());
+            return self.never_learned(session);
         }
+        self.learned(session)?;
+        self.skip(
+            CHECKS[LEARNED],
+            "not applicable: its tables learned (the checks before apply)",
+        );
+        Ok(())
+    }
+
+    /// The last check, on tables that never learn: the guard answers and a re-seed needs
+    /// no nonce.
+    fn never_learned(&mut self, session: SessionConfig) -> Result<()> {
+        let (_, mut p, j) = self.reseed_nonce()?;
+        if errors(&j)
+            .iter()
+            .any(|e| e.code == codes::GUARD_REFUSED && e.detail == 0x105)
+        {
+            p.clear();
+        }
+        let reseed = SessionConfig {
+            seed: session.seed.wrapping_add(1),
+            keep_tables: false,
+            ..session
+        };
+        let j = self.exchange(reseed.into(), |j| echoed(j) || !errors(j).is_empty())?;
+        if !j.iter().any(|e| e.msg == Message::SessionConfig(reseed)) {
+            p.push(format!(
+                "the re-seed without a nonce was not acknowledged: errors {:?}",
+                errors(&j)
+            ));
+        }
+        self.verdict(CHECKS[LEARNED], p);
+        Ok(())
+    }
+
+    /// The checks of learned tables.
+    fn learned(&mut self, session: SessionConfig) -> Result<()> {
         let p = self.refused_target()?;
         self.verdict(CHECKS[0], p);
         let reseed = SessionConfig {
@@ -213,6 +264,14 @@ where
         let p = self.refused_confirmation(confirm(wrong), 0x104)?;
         self.verdict(CHECKS[4], p);
 
+        // another operation's nonce: issued for a table write, presented with a re-seed
+        // (the refusal names the re-seed's op, 1; SPEC 3.4, "Two numberings")
+        let (n, mut p, _) = self.nonce_for(GuardOp::TableWrite)?;
+        if let Some(n) = n {
+            p.extend(self.refused_confirmation(confirm(n.nonce), 0x104)?);
+        }
+        self.verdict(CHECKS[5], p);
+
         // stale: presented after its window, measured in the controller's own heartbeats
         // (every 100 ms of its clock, SPEC 5), since its clock may run slower than ours
         let (n, mut p, _) = self.reseed_nonce()?;
@@ -227,7 +286,7 @@ where
             }
             p.extend(self.refused_confirmation(confirm(n.nonce), 0x102)?);
         }
-        self.verdict(CHECKS[5], p);
+        self.verdict(CHECKS[6], p);
 
         let (n, mut p, _) = self.reseed_nonce()?;
         let fresh = n.map(|n| confirm(n.nonce));
@@ -242,12 +301,12 @@ where
             }
         }
         let accepted = p.is_empty();
-        self.verdict(CHECKS[6], p);
+        self.verdict(CHECKS[7], p);
 
         // the replay: the tables learn again in a session, which then ends; the same
         // confirmation comes back
         let Some(c) = fresh.filter(|_| accepted) else {
-            self.skip_from(7, "not run: no confirmation was accepted");
+            self.skip_from(8, "not run: no confirmation was accepted");
             return Ok(());
         };
         let mut p = Vec::new();
@@ -268,11 +327,11 @@ where
             p.push(e.to_string());
         }
         if p.is_empty() && !self.still_running()? {
-            self.skip_from(7, "not applicable: the controller ended its loop at ModeChange{Idle} (SPEC 3.1 allows it)");
+            self.skip_from(8, "not applicable: the controller ended its loop at ModeChange{Idle} (SPEC 3.1 allows it)");
             return Ok(());
         }
         p.extend(self.refused_confirmation(c, 0x103)?);
-        self.verdict(CHECKS[7], p);
+        self.verdict(CHECKS[8], p);
         Ok(())
     }
 }
