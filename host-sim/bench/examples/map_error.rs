@@ -6,6 +6,12 @@
 //! along the error, its residual across it, and the error a step with the true Jacobian
 //! leaves: what the map's curvature alone leaves).
 //!
+//! Two more columns say whether the learned Jacobians or the representation limit the first
+//! fine move: the step of the neighbours' *true* Jacobians (each neuron's plant Jacobian at its
+//! own pressures, averaged with the weights the network gives its ranks, then inverted), and
+//! how far the nearest neurons' pressures lie from the target's own pressures against the
+//! coarse command.
+//!
 //! `scripts/diagnosis_map.sh` trains the networks (seeds 100-102) and runs it:
 //! `map_error PLANT.toml SEED=NET.ckpt ...` prints one row per checkpoint and their mean.
 use nalgebra::{SMatrix, SVector};
@@ -24,6 +30,11 @@ const REST_S: f64 = 20.0;
 const TARGETS: usize = 300;
 /// Pressure step of the central differences of the true Jacobian.
 const H: f32 = 0.02;
+/// Ranks whose true Jacobians are averaged (weights `exp(-r / 10)`, the network's averaging
+/// range: the ranks beyond carry 5 % of the weight).
+const AVERAGED: usize = 30;
+/// The nearest neurons whose pressures are compared with the target's.
+const NEAREST: usize = 5;
 
 fn at_rest(plant: &mut Plant, p: &[f32; 5]) -> Option<[f32; 8]> {
     let p: [f32; 5] = core::array::from_fn(|i| p[i].clamp(-1.0, 1.0));
@@ -50,20 +61,17 @@ struct Row {
     true_ratio: f32,
     gain: f32,
     across: f32,
-    /// Scratch: the step of the neighbours' true inverse Jacobians (at their own pressures),
-    /// averaged with the network's weights, and of the learned ones over the first ranks.
-    avg_true_ratio: f32,
-    avg_j_ratio: f32,
-    near_learned_ratio: f32,
-    own_learned_ratio: f32,
-    target_j_ratio: f32,
-    p_nbr: f32,
-    p_coarse: f32,
-    cond: f32,
-    pr_learned: f32,
-    pr_true: f32,
-    reg_p: f32,
-    reg_w: f32,
+    neighbours_true_ratio: f32,
+    nearest_p: f32,
+    coarse_p: f32,
+}
+
+fn pressure_distance(a: &[f32; 5], b: &[f32; 5]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f32>()
+        .sqrt()
 }
 
 /// The true Jacobian dv/dp at `p` (central differences), or `None` if a light left a view.
@@ -86,8 +94,8 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
     let net = ctrl.stage1().net().clone();
     let mut scratch = RankScratch::new();
     let mut rows = Vec::new();
-    let mut cache: std::collections::HashMap<usize, Option<SMatrix<f32, 8, 5>>> =
-        std::collections::HashMap::new();
+    // each neuron's true Jacobian at its own pressures, computed once
+    let mut at_neuron: Vec<Option<Option<SMatrix<f32, 8, 5>>>> = vec![None; 1000];
     let mut tries = 0;
     while rows.len() < TARGETS && tries < 20 * TARGETS {
         tries += 1;
@@ -129,115 +137,32 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
         let coarse_px = e.norm();
         let mut order: Vec<usize> = (0..1000).collect();
         order.sort_by(|&a, &b| dist(&net.weight(a), &u).total_cmp(&dist(&net.weight(b), &u)));
-        let ranks: usize = std::env::var("RANKS").ok().and_then(|s| s.parse().ok()).unwrap_or(30);
-        let near: usize = std::env::var("NEAR").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
-        let mut a_true = SMatrix::<f32, 5, 8>::zeros();
-        let mut j_avg = SMatrix::<f32, 8, 5>::zeros();
-        let mut a_near = SMatrix::<f32, 5, 8>::zeros();
-        let (mut wsum, mut nsum) = (0.0f32, 0.0f32);
-        for (r, &k) in order[..ranks].iter().enumerate() {
-            let al = (-(r as f32) / 10.0).exp();
-            let jk = *cache.entry(k).or_insert_with(|| jacobian(plant, &net.pressure(k)));
+        let (mut j_avg, mut weight) = (SMatrix::<f32, 8, 5>::zeros(), 0.0f32);
+        for (r, &k) in order[..AVERAGED].iter().enumerate() {
+            let jk = *at_neuron[k].get_or_insert_with(|| jacobian(plant, &net.pressure(k)));
             if let Some(jk) = jk {
-                if let Ok(pk) = jk.pseudo_inverse(1e-6) {
-                    a_true += pk * al;
-                    j_avg += jk * al;
-                    wsum += al;
-                }
-            }
-            if r < near {
-                let ak = net.jacobian(k);
-                a_near += SMatrix::<f32, 5, 8>::from_fn(|m, d| ak[m][d]) * al;
-                nsum += al;
+                let al = (-(r as f32) / 10.0).exp();
+                j_avg += jk * al;
+                weight += al;
             }
         }
-        let ak0 = net.jacobian(order[0]);
-        let a_own = SMatrix::<f32, 5, 8>::from_fn(|m, d| ak0[m][d]);
-        let jt_pre = jacobian(plant, &pt);
-        let pdist = |a: &[f32; 5]| a.iter().zip(&p0).map(|(x, y)| (x - y) * (x - y)).sum::<f32>();
-        let mut porder: Vec<usize> = (0..1000).collect();
-        porder.sort_by(|&a, &b| pdist(&net.pressure(a)).total_cmp(&pdist(&net.pressure(b))));
-        let pranks: usize = std::env::var("PRANKS").ok().and_then(|s| s.parse().ok()).unwrap_or(10);
-        let palpha: f32 = std::env::var("PALPHA").ok().and_then(|s| s.parse().ok()).unwrap_or(3.0);
-        let (mut a_pl, mut j_pt, mut pw, mut pwt) =
-            (SMatrix::<f32, 5, 8>::zeros(), SMatrix::<f32, 8, 5>::zeros(), 0.0f32, 0.0f32);
-        for (r, &k) in porder[..pranks].iter().enumerate() {
-            let al = (-(r as f32) / palpha).exp();
-            let ak = net.jacobian(k);
-            a_pl += SMatrix::<f32, 5, 8>::from_fn(|m, d| ak[m][d]) * al;
-            pw += al;
-            if let Some(jk) = *cache.entry(k).or_insert_with(|| jacobian(plant, &net.pressure(k))) {
-                j_pt += jk * al;
-                pwt += al;
-            }
-        }
-        let mut ratio_of = |a: SMatrix<f32, 5, 8>| -> f32 {
-            let dx = a * e;
-            let p: [f32; 5] = core::array::from_fn(|i| p0[i] + dx[i]);
-            at_rest(plant, &p).map_or(f32::NAN, |v| dist(&u, &v) / coarse_px)
+        let Ok(jn) = (j_avg / weight.max(f32::MIN_POSITIVE)).pseudo_inverse(1e-6) else {
+            continue;
         };
-        let avg_true_ratio = ratio_of(a_true / wsum.max(1e-9));
-        let avg_j_ratio = (j_avg / wsum.max(1e-9))
-            .pseudo_inverse(1e-6)
-            .map_or(f32::NAN, &mut ratio_of);
-        let near_learned_ratio = ratio_of(a_near / nsum);
-        let own_learned_ratio = ratio_of(a_own);
-        let regn: usize = std::env::var("REGN").ok().and_then(|s| s.parse().ok()).unwrap_or(20);
-        let fit = |idx: &[usize], ralpha: f32| -> (SVector<f32, 5>, SVector<f32, 8>, SMatrix<f32, 5, 5>, SMatrix<f32, 8, 8>, SMatrix<f32, 8, 5>) {
-            let (mut pb, mut wb, mut ws) = (SVector::<f32, 5>::zeros(), SVector::<f32, 8>::zeros(), 0.0f32);
-            for (r, &k) in idx.iter().enumerate() {
-                let al = (-(r as f32) / ralpha).exp();
-                pb += SVector::<f32, 5>::from(net.pressure(k)) * al;
-                wb += SVector::<f32, 8>::from(net.weight(k)) * al;
-                ws += al;
-            }
-            pb /= ws;
-            wb /= ws;
-            let (mut cpp, mut cww, mut cwp) = (SMatrix::<f32, 5, 5>::zeros(), SMatrix::<f32, 8, 8>::zeros(), SMatrix::<f32, 8, 5>::zeros());
-            for (r, &k) in idx.iter().enumerate() {
-                let al = (-(r as f32) / ralpha).exp();
-                let dp = SVector::<f32, 5>::from(net.pressure(k)) - pb;
-                let dw = SVector::<f32, 8>::from(net.weight(k)) - wb;
-                cpp += dp * dp.transpose() * al;
-                cww += dw * dw.transpose() * al;
-                cwp += dw * dp.transpose() * al;
-            }
-            (pb, wb, cpp, cww, cwp)
+        let dn = jn * e;
+        let p_n: [f32; 5] = core::array::from_fn(|i| p0[i] + dn[i]);
+        let Some(vn) = at_rest(plant, &p_n) else {
+            continue;
         };
-        let (_, _, cpp, _, cwp) = fit(&porder[..regn], palpha);
-        let reg_p = cpp
-            .try_inverse()
-            .map(|ci| cwp * ci)
-            .and_then(|j| j.pseudo_inverse(1e-6).ok())
-            .map_or(f32::NAN, &mut ratio_of);
-        let (_, _, _, cww, cwp) = fit(&order[..regn], 10.0);
-        let reg_w = cww
-            .pseudo_inverse(1e-3 * cww.trace())
-            .map(|ci| cwp.transpose() * ci)
-            .map_or(f32::NAN, &mut ratio_of);
-        let pr_learned = ratio_of(a_pl / pw);
-        let pr_true = (j_pt / pwt.max(1e-9)).pseudo_inverse(1e-6).map_or(f32::NAN, &mut ratio_of);
-        let target_j_ratio = jt_pre
-            .and_then(|jt| jt.pseudo_inverse(1e-6).ok())
-            .map_or(f32::NAN, &mut ratio_of);
-        let pv = |a: &[f32; 5]| SVector::<f32, 5>::from_iterator(a.iter().zip(&pt).map(|(x, y)| x - y)).norm();
-        let p_nbr = order[..5].iter().map(|&k| pv(&net.pressure(k))).sum::<f32>() / 5.0;
-        let p_coarse = pv(&p0);
-        let sv = j.singular_values();
-        let cond = sv.max() / sv.min().max(1e-9);
+        let nearest_p = order[..NEAREST]
+            .iter()
+            .map(|&k| pressure_distance(&net.pressure(k), &pt))
+            .sum::<f32>()
+            / NEAREST as f32;
         rows.push(Row {
-            avg_true_ratio,
-            avg_j_ratio,
-            near_learned_ratio,
-            own_learned_ratio,
-            target_j_ratio,
-            p_nbr,
-            p_coarse,
-            cond,
-            pr_learned,
-            pr_true,
-            reg_p,
-            reg_w,
+            neighbours_true_ratio: dist(&u, &vn) / coarse_px,
+            nearest_p,
+            coarse_p: pressure_distance(&p0, &pt),
             nearest_px,
             coarse_px,
             learned_ratio: dist(&u, &v1) / coarse_px,
@@ -263,10 +188,10 @@ fn main() {
     let mut cfg = cfg;
     cfg.realism.process_noise_deg = 0.0;
     println!(
-        "| seed | targets | nearest neuron px | coarse px: mean (p95) | coarse, nearest third px | coarse, farthest third px | first fine move: error left, learned Jacobian (p95) | error left, true Jacobian (p95) | learned step: gain along the error | learned step: residual across the error |"
+        "| seed | targets | nearest neuron px | coarse px: mean (p95) | coarse, nearest third px | coarse, farthest third px | first fine move: error left, learned Jacobian (p95) | error left, true Jacobian (p95) | learned step: gain along the error | learned step: residual across the error | error left, the neighbours' true Jacobians averaged (p95) | pressure distance to the target's pressures: nearest neurons / coarse command |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
-    let mut all: Vec<[f32; 9]> = Vec::new();
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut all: Vec<[f32; 13]> = Vec::new();
     for arg in &args[1..] {
         let Some((seed, path)) = arg.split_once('=') else {
             eprintln!("{usage}");
@@ -293,6 +218,7 @@ fn main() {
         let coarse = col(|r| r.coarse_px, &rows);
         let learned = col(|r| r.learned_ratio, &rows);
         let exact = col(|r| r.true_ratio, &rows);
+        let neighbours = col(|r| r.neighbours_true_ratio, &rows);
         let v = [
             mean(&col(|r| r.nearest_px, &rows)),
             mean(&coarse),
@@ -303,39 +229,25 @@ fn main() {
             p95(&learned),
             mean(&exact),
             p95(&exact),
+            mean(&col(|r| r.gain, &rows)),
+            mean(&col(|r| r.across, &rows)),
+            mean(&neighbours),
+            p95(&neighbours),
         ];
-        let gain = mean(&col(|r| r.gain, &rows));
-        let across = mean(&col(|r| r.across, &rows));
-        let nanmean = |v: Vec<f32>| {
-            let mut v: Vec<f32> = v.into_iter().filter(|x| x.is_finite()).collect();
-            v.sort_by(|a, b| a.total_cmp(b));
-            format!("{:.3}/med {:.3}", mean(&v), v[v.len() / 2])
-        };
-        eprintln!(
-            "{seed}: avg true inverse {} | inverse of avg true J {} | learned first ranks {} | learned nearest only {} | J at target {} | |p_k-pt| ranks<5 {} | |p0-pt| {} | cond J(p0) {} | pressure-ranked learned {} true {} | regression on pressure nbrs {} on image nbrs {}",
-            nanmean(col(|r| r.avg_true_ratio, &rows)),
-            nanmean(col(|r| r.avg_j_ratio, &rows)),
-            nanmean(col(|r| r.near_learned_ratio, &rows)),
-            nanmean(col(|r| r.own_learned_ratio, &rows)),
-            nanmean(col(|r| r.target_j_ratio, &rows)),
-            nanmean(col(|r| r.p_nbr, &rows)),
-            nanmean(col(|r| r.p_coarse, &rows)),
-            nanmean(col(|r| r.cond, &rows)),
-            nanmean(col(|r| r.pr_learned, &rows)),
-            nanmean(col(|r| r.pr_true, &rows)),
-            nanmean(col(|r| r.reg_p, &rows)),
-            nanmean(col(|r| r.reg_w, &rows)),
+        let (near_p, coarse_p) = (
+            mean(&col(|r| r.nearest_p, &rows)),
+            mean(&col(|r| r.coarse_p, &rows)),
         );
         println!(
-            "| {seed} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | {gain:.3} | {across:.3} |",
+            "| {seed} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | {:.3} | {:.3} | {:.3} ({:.3}) | {near_p:.2} / {coarse_p:.2} |",
             rows.len(),
-            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]
+            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12]
         );
         all.push(v);
     }
     let m = |i: usize| all.iter().map(|v| v[i]).sum::<f32>() / all.len() as f32;
     println!(
-        "| mean | | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | | |",
+        "| mean | | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | | | {:.3} ({:.3}) | |",
         m(0),
         m(1),
         m(2),
@@ -344,6 +256,8 @@ fn main() {
         m(5),
         m(6),
         m(7),
-        m(8)
+        m(8),
+        m(11),
+        m(12)
     );
 }
