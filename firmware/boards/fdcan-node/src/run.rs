@@ -5,10 +5,11 @@ use embassy_futures::select::{select, Either};
 use embassy_time::{Duration, Instant, Timer};
 use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
-use trn_node::{ControllerNode, NodeConfig};
+use trn_node::{BusAction, BusState, ControllerNode, NodeConfig};
 use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
 
 use crate::fdcan::Fdcan;
+use crate::health;
 use crate::port::FdcanPort;
 
 /// The node's state beside the controller: the node, the frame encoder (CAN 2.0 until a
@@ -76,6 +77,13 @@ fn instant_of(at_ms: u32) -> Instant {
 /// the request it waits on). Port errors (bus errors, a full transmit buffer) are logged and
 /// counted; the node's own repeats recover what they cost.
 ///
+/// Each turn first reads FDCAN1's health ([`health::read`]) into the node
+/// ([`ControllerNode::bus_health_frames`]: its counters in the node's statistics, its
+/// `BUS_STATE`/`BUS_COUNTS` reports sent when the state changes): while the peripheral is
+/// bus-off the node's frames are dropped, and once the node's hold-off has passed the
+/// peripheral is restarted ([`health::restart`]). A bus-off is seen within a turn (at most a
+/// heartbeat period, 100 ms).
+///
 /// `feed` feeds the board's independent watchdog: called once a turn, and a turn comes at
 /// least every heartbeat period (100 ms), so a loop that stops turning (a hang, a lost
 /// interrupt) lets the watchdog reset the part. The watchdog's period must exceed the
@@ -95,8 +103,10 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     let mut port = FdcanPort::new(can.reader(), can.writer());
     let mut port_errors: u32 = 0;
     let mut trials = 0;
+    let mut bus = BusState::ErrorActive;
     loop {
         feed();
+        bus_turn(node, enc, &mut port, &mut bus);
         if let Err(e) = node.service(ctrl, rx, enc, &mut port, now_ms()) {
             port_errors = port_errors.wrapping_add(1);
             defmt::warn!("CAN port: {} ({} so far)", e, port_errors);
@@ -121,5 +131,56 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
                 defmt::warn!("CAN bus error: {} ({} so far)", e, port_errors);
             }
         }
+    }
+}
+
+/// A turn's reading of FDCAN1's health handed to the node; its reports queued, a restart
+/// made when the node says so, the port kept from queueing frames while the bus is off.
+fn bus_turn(
+    node: &mut ControllerNode,
+    enc: &mut Encoder,
+    port: &mut FdcanPort,
+    last: &mut BusState,
+) {
+    use embedded_can::nb::Can;
+    let reading = health::read();
+    let mut off = reading.state == BusState::BusOff;
+    port.set_off_bus(false);
+    let action = node.bus_health_frames(&reading, enc, now_ms(), &mut |f| {
+        // reports are sent only when the bus is not off; a full buffer drops them as any
+        // frame (the next change is reported again)
+        let _ = port.transmit(f);
+    });
+    if reading.state != *last {
+        let c = node.stats().bus;
+        defmt::warn!(
+            "CAN {}: TEC {}, REC {} (bus-offs {}, error-passive {}, receive overruns {}, frames dropped while off {})",
+            state_name(reading.state),
+            reading.tec,
+            reading.rec,
+            c.bus_offs,
+            c.passives,
+            c.overruns,
+            port.dropped_off_bus()
+        );
+        *last = reading.state;
+    }
+    if let Ok(BusAction::Restart) = action {
+        health::restart();
+        off = false;
+        defmt::warn!(
+            "CAN bus-off: restart {} after its hold-off, pending frames aborted",
+            node.stats().bus.restarts
+        );
+    }
+    port.set_off_bus(off);
+}
+
+fn state_name(s: BusState) -> &'static str {
+    match s {
+        BusState::ErrorActive => "error-active",
+        BusState::ErrorWarning => "error-warning",
+        BusState::ErrorPassive => "error-passive",
+        BusState::BusOff => "bus-off",
     }
 }
