@@ -33,7 +33,7 @@ mod stack;
 
 pub use fdcan::{start, Fdcan, KernelClock};
 pub use port::{FdcanPort, PortError};
-pub use run::{now_ms, run, NodeState};
+pub use run::{now_ms, rng_draws, run, NodeState};
 pub use stack::stack_high_water_mark;
 /// The node's timing and save settings ([`NodeState::with_config`]).
 pub use trn_node::NodeConfig;

@@ -2,10 +2,13 @@
 //! node's next timeout, with embassy-time's clock as the node's milliseconds.
 
 use embassy_futures::select::{select, Either};
-use embassy_time::{Duration, Instant, Timer};
+use embassy_stm32::rng::{self, Rng};
+use embassy_time::{with_timeout, Duration, Instant, Timer};
 use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
-use trn_node::{BusAction, BusState, ControllerNode, NodeConfig};
+use trn_node::{
+    seed_from_draws, BusAction, BusState, ControllerNode, NodeConfig, SeedFailure, SEED_DRAWS,
+};
 use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
 
 use crate::fdcan::Fdcan;
@@ -39,6 +42,16 @@ impl NodeState {
         }
     }
 
+    /// Seeds the guard of the learned tables from the part's hardware RNG's draws
+    /// ([`rng_draws`]; `trn_node::seed_from_draws`), so the node issues the nonces that
+    /// re-seeding, writing in and erasing tables over the bus need (`trn ... --reset-tables`,
+    /// `StoreCommand{Erase}`). On a failure the node stays unseeded and refuses them all
+    /// (`GUARD_REFUSED` reason 5). Call it once, before [`run`].
+    pub fn seed_guard(&mut self, draws: [Option<u32>; SEED_DRAWS]) -> Result<(), SeedFailure> {
+        self.node.seed_guard(seed_from_draws(draws)?);
+        Ok(())
+    }
+
     /// Tells the node what the board restored at boot (`None`: nothing): it announces it
     /// with `TablesStatus{Restored | NotRestored}` at its first turn
     /// ([`ControllerNode::tables_restored`]). Call it once, before [`run`].
@@ -51,6 +64,22 @@ impl Default for NodeState {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// [`SEED_DRAWS`] words drawn from the part's RNG (embassy's driver), each bounded by
+/// 10 ms: `None` for a draw that failed (a seed or clock error of the RNG, or no word in
+/// time).
+pub async fn rng_draws<T: rng::Instance>(rng: &mut Rng<'_, T>) -> [Option<u32>; SEED_DRAWS] {
+    let mut draws = [None; SEED_DRAWS];
+    for draw in &mut draws {
+        let mut word = [0u8; 4];
+        if let Ok(Ok(())) =
+            with_timeout(Duration::from_millis(10), rng.async_fill_bytes(&mut word)).await
+        {
+            *draw = Some(u32::from_le_bytes(word));
+        }
+    }
+    draws
 }
 
 /// The node's clock: milliseconds since boot, wrapping after 49.7 days (the node compares

@@ -14,7 +14,8 @@
 use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_stm32::can::{self, RxFdBuf, TxFdBuf};
-use embassy_stm32::peripherals::FDCAN1;
+use embassy_stm32::peripherals::{self, FDCAN1};
+use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
@@ -25,6 +26,7 @@ use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState};
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
     FDCAN1_IT1 => can::IT1InterruptHandler<FDCAN1>;
+    RNG => rng::InterruptHandler<peripherals::RNG>;
 });
 
 /// The FDCAN kernel clock of `clocks()`: the 24 MHz crystal.
@@ -122,5 +124,15 @@ async fn main(_spawner: Spawner) {
         bitrate::NOMINAL,
         bitrate::DATA
     );
-    trn_fdcan_node::run(can, CONTROLLER.take(), NODE.take(), || watchdog.pet()).await
+    let node = NODE.take();
+    // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
+    match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
+        Ok(()) => defmt::info!("guard seeded from the RNG"),
+        Err(e) => defmt::error!(
+            "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
+            e.failed,
+            e.repeated
+        ),
+    }
+    trn_fdcan_node::run(can, CONTROLLER.take(), node, || watchdog.pet()).await
 }

@@ -19,7 +19,8 @@
 use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_stm32::can::{self, RxFdBuf, TxFdBuf};
-use embassy_stm32::peripherals::FDCAN1;
+use embassy_stm32::peripherals::{self, FDCAN1};
+use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
@@ -32,6 +33,7 @@ use trn_store::RestoreError;
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
     FDCAN1_IT1 => can::IT1InterruptHandler<FDCAN1>;
+    RNG => rng::InterruptHandler<peripherals::RNG>;
 });
 
 /// The FDCAN kernel clock of `clocks()`: PLL1 Q, 8 MHz / 1 * 100 / 10.
@@ -452,6 +454,15 @@ async fn main(_spawner: Spawner) {
             "store slots {=u8:b}: a flash word torn by a power cut (ECC); no copy there, the next save erases it",
             torn
         );
+    }
+    // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
+    match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
+        Ok(()) => defmt::info!("guard seeded from the RNG"),
+        Err(e) => defmt::error!(
+            "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
+            e.failed,
+            e.repeated
+        ),
     }
     node.tables_restored(&mut board, restored);
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
