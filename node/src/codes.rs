@@ -76,6 +76,12 @@ pub const BUS_STATE: u16 = 0x010E;
 /// receive overruns`, each saturating at 0xFFFF.
 pub const BUS_COUNTS: u16 = 0x010F;
 
+/// Sent once at boot by a board: why the part last reset (`crate::reset`); detail =
+/// `cause << 24 | detail`: cause 0 unknown, 1 power-on or brown-out, 2 reset pin, 3
+/// watchdog, 4 panic (detail: its source line), 5 hard fault (detail: the low 24 bits of the
+/// faulting instruction's address), 6 another software reset. A status report.
+pub const RESET_CAUSE: u16 = 0x0110;
+
 /// `TABLES_FAILED` operations (bits 8..16 of the detail).
 pub mod table_op {
     /// Reading a chunk out (`TableReadRequest`).

@@ -26,6 +26,7 @@ mod guard;
 pub mod health;
 mod node;
 mod outbox;
+pub mod reset;
 mod service;
 mod stats;
 
@@ -35,4 +36,5 @@ pub use guard::{op_code, seed_from_draws, Refusal, SeedFailure, SEED_DRAWS};
 pub use health::{BusAction, BusCounters, BusReading, BusState};
 pub use node::{ControllerNode, NodeStats};
 pub use outbox::{send, FrameError, Outbox, OUTBOX};
+pub use reset::{reset_cause, reset_report, ResetCause, ResetFlags};
 pub use service::{from_protocol, to_protocol};

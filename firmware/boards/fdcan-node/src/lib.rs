@@ -37,3 +37,5 @@ pub use run::{now_ms, rng_draws, run, NodeState};
 pub use stack::stack_high_water_mark;
 /// The node's timing and save settings ([`NodeState::with_config`]).
 pub use trn_node::NodeConfig;
+/// The reset flags a board reads at boot ([`NodeState::reset_cause`]).
+pub use trn_node::ResetFlags;

@@ -6,10 +6,14 @@ use embassy_stm32::rng::{self, Rng};
 use embassy_time::{with_timeout, Duration, Instant, Timer};
 use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
+use trn_node::Outbox;
 use trn_node::{
-    seed_from_draws, BusAction, BusState, ControllerNode, NodeConfig, SeedFailure, SEED_DRAWS,
+    reset_cause, reset_report, seed_from_draws, BusAction, BusState, ControllerNode, NodeConfig,
+    ResetCause, ResetFlags, SeedFailure, SEED_DRAWS,
 };
-use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
+use trn_protocol::{
+    BusMode, Encoder, Envelope, ErrorReport, NodeId, Reassembler, DEFAULT_STALE_MS,
+};
 
 use crate::fdcan::Fdcan;
 use crate::health;
@@ -22,6 +26,8 @@ pub struct NodeState {
     node: ControllerNode,
     enc: Encoder,
     rx: Reassembler,
+    /// Why the part last reset, announced at the loop's start.
+    reset: Option<(ResetCause, u32)>,
 }
 
 impl NodeState {
@@ -39,6 +45,7 @@ impl NodeState {
             node: ControllerNode::new(cfg),
             enc: Encoder::new(BusMode::Classic),
             rx: Reassembler::new(DEFAULT_STALE_MS),
+            reset: None,
         }
     }
 
@@ -50,6 +57,16 @@ impl NodeState {
     pub fn seed_guard(&mut self, draws: [Option<u32>; SEED_DRAWS]) -> Result<(), SeedFailure> {
         self.node.seed_guard(seed_from_draws(draws)?);
         Ok(())
+    }
+
+    /// Takes why the part last reset from its reset `flags` (read from the clock controller
+    /// and cleared by the board) and the record of the panic or hard-fault handler
+    /// ([`crate::recover::take_record`]): announced on the bus at the loop's start with
+    /// `ErrorReport{RESET_CAUSE}`, and returned (to log). Call it once, at boot.
+    pub fn reset_cause(&mut self, flags: ResetFlags) -> (ResetCause, u32) {
+        let cause = reset_cause(flags, crate::recover::take_record(flags.power_on));
+        self.reset = Some(cause);
+        cause
     }
 
     /// Tells the node what the board restored at boot (`None`: nothing): it announces it
@@ -99,7 +116,8 @@ fn instant_of(at_ms: u32) -> Instant {
     }
 }
 
-/// Runs the controller node on `can` for ever. Each turn hands every received frame to the
+/// Runs the controller node on `can` for ever. It first announces why the part reset (when
+/// the board told [`NodeState::reset_cause`]). Each turn hands every received frame to the
 /// node and runs its timers ([`ControllerNode::service`], the code path of the host and the
 /// QEMU firmware); then the task sleeps until the receive interrupt brings a frame or the
 /// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
@@ -128,8 +146,16 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     state: &mut NodeState,
     mut feed: impl FnMut(),
 ) -> ! {
-    let NodeState { node, enc, rx } = state;
+    let NodeState {
+        node,
+        enc,
+        rx,
+        reset,
+    } = state;
     let mut port = FdcanPort::new(can.reader(), can.writer());
+    if let Some((cause, detail)) = reset.take() {
+        announce(enc, &mut port, reset_report(cause, detail));
+    }
     let mut port_errors: u32 = 0;
     let mut trials = 0;
     let mut bus = BusState::ErrorActive;
@@ -212,4 +238,14 @@ fn state_name(s: BusState) -> &'static str {
         BusState::ErrorPassive => "error-passive",
         BusState::BusOff => "bus-off",
     }
+}
+
+/// Sends one report of the node's, outside its turns (the reset cause at boot).
+fn announce(enc: &mut Encoder, port: &mut FdcanPort, report: ErrorReport) {
+    use embedded_can::nb::Can;
+    let mut out = Outbox::new();
+    let _ = out.push(Envelope::new(NodeId::Controller, report.into()));
+    let _ = trn_node::send(enc, &out, &mut |f| {
+        let _ = port.transmit(f);
+    });
 }

@@ -21,7 +21,7 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
 use static_cell::ConstStaticCell;
 use trn_controller::Controller;
-use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState};
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState, ResetFlags};
 
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
@@ -94,8 +94,22 @@ fn clocks(hse: bool) -> embassy_stm32::Config {
     config
 }
 
+/// The reset flags (RCC CSR: a power-on also sets the brown-out flag), then cleared.
+fn reset_flags() -> ResetFlags {
+    use embassy_stm32::pac::RCC;
+    let r = RCC.csr().read();
+    RCC.csr().modify(|w| w.set_rmvf(true));
+    ResetFlags {
+        power_on: r.borrstf(),
+        pin: r.pinrstf(),
+        watchdog: r.iwdgrstf() || r.wwdgrstf(),
+        software: r.sftrstf(),
+    }
+}
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    let flags = reset_flags();
     let hse = hse_starts();
     let p = embassy_stm32::init(clocks(hse));
     let mut watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_US);
@@ -125,6 +139,12 @@ async fn main(_spawner: Spawner) {
         bitrate::DATA
     );
     let node = NODE.take();
+    let (cause, detail) = node.reset_cause(flags);
+    defmt::info!(
+        "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
+        cause as u8,
+        detail
+    );
     // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
     match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
         Ok(()) => defmt::info!("guard seeded from the RNG"),

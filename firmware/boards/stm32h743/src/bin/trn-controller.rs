@@ -26,7 +26,7 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
 use static_cell::ConstStaticCell;
 use trn_controller::{Controller, WithStore};
-use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState};
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState, ResetFlags};
 use trn_store::policy::{steps_between_saves, Endurance};
 use trn_store::RestoreError;
 
@@ -393,8 +393,22 @@ fn clocks(hse: bool) -> embassy_stm32::Config {
     config
 }
 
+/// The reset flags (RCC RSR: a power-on also sets the brown-out flag), then cleared.
+fn reset_flags() -> ResetFlags {
+    use embassy_stm32::pac::RCC;
+    let r = RCC.rsr().read();
+    RCC.rsr().modify(|w| w.set_rmvf(true));
+    ResetFlags {
+        power_on: r.porrstf() || r.borrstf(),
+        pin: r.pinrstf(),
+        watchdog: r.iwdg1rstf() || r.wwdg1rstf(),
+        software: r.sftrstf(),
+    }
+}
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    let flags = reset_flags();
     let hse = hse_starts();
     let p = embassy_stm32::init(clocks(hse));
     let mut watchdog = IndependentWatchdog::new(p.IWDG1, WATCHDOG_US);
@@ -455,6 +469,12 @@ async fn main(_spawner: Spawner) {
             torn
         );
     }
+    let (cause, detail) = node.reset_cause(flags);
+    defmt::info!(
+        "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
+        cause as u8,
+        detail
+    );
     // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
     match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
         Ok(()) => defmt::info!("guard seeded from the RNG"),
