@@ -124,9 +124,11 @@ struct Reported {
     overruns: u32,
 }
 
-/// The policy's state beside the counters.
+/// The policy's state beside the counters (the counters are the node's,
+/// [`crate::NodeStats::bus`]): the board keeps it beside the node, so a build that reads no
+/// CAN controller (the QEMU firmware, the host) spends no RAM on it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct BusHealth {
+pub struct BusHealth {
     /// When the bus-off in progress began, or its last restart.
     off_since: Option<u32>,
     /// When the last bus-off began.
@@ -137,8 +139,16 @@ pub(crate) struct BusHealth {
     last_report: Option<u32>,
 }
 
+impl Default for BusHealth {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl BusHealth {
-    pub(crate) const fn new() -> Self {
+    /// No bus-off seen, nothing reported (an error-active controller with no counts is
+    /// what the first report would say, so it is not sent).
+    pub const fn new() -> Self {
         BusHealth {
             off_since: None,
             last_off: None,

@@ -33,7 +33,7 @@ mod stats;
 pub use codes::controller_error_code;
 pub use config::NodeConfig;
 pub use guard::{op_code, seed_from_draws, Refusal, SeedFailure, SEED_DRAWS};
-pub use health::{BusAction, BusCounters, BusReading, BusState};
+pub use health::{BusAction, BusCounters, BusHealth, BusReading, BusState};
 pub use node::{ControllerNode, NodeStats};
 pub use outbox::{send, FrameError, Outbox, OUTBOX};
 pub use reset::{reset_cause, reset_report, ResetCause, ResetFlags};

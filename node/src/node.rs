@@ -84,8 +84,6 @@ pub struct ControllerNode {
     /// A trial's start waiting for the save in progress.
     deferred: Option<Deferred>,
     pub(crate) stats: NodeStats,
-    /// The CAN controller's health policy.
-    bus: BusHealth,
 }
 
 /// The controller's fine-move rule for a target's `fine_moves` field.
@@ -137,7 +135,6 @@ impl ControllerNode {
                 estimated: 0,
                 bus: BusCounters::ZERO,
             },
-            bus: BusHealth::new(),
         }
     }
 
@@ -160,14 +157,21 @@ impl ControllerNode {
     }
 
     /// Takes a board's reading of its CAN controller (a turn's, before
-    /// [`ControllerNode::service`]): the counters of [`NodeStats::bus`] updated, the health
+    /// [`ControllerNode::service`]) into the policy's state `health` (the board's, one for
+    /// the node's life): the counters of [`NodeStats::bus`] updated, the health
     /// reports pushed into `out` when due (`BUS_STATE` and `BUS_COUNTS`, protocol/SPEC.md
     /// section 7), and what the board must do: [`BusAction::Restart`] once a bus-off's
     /// hold-off has passed (`health.rs` has the policy). While the reading says bus-off, the
     /// board drops what the node sends.
-    pub fn bus_health(&mut self, reading: &BusReading, now_ms: u32, out: &mut Outbox) -> BusAction {
-        let action = self.bus.update(&mut self.stats.bus, reading, now_ms);
-        self.bus.report(&mut self.stats.bus, now_ms, out);
+    pub fn bus_health(
+        &mut self,
+        health: &mut BusHealth,
+        reading: &BusReading,
+        now_ms: u32,
+        out: &mut Outbox,
+    ) -> BusAction {
+        let action = health.update(&mut self.stats.bus, reading, now_ms);
+        health.report(&mut self.stats.bus, now_ms, out);
         action
     }
 
@@ -176,13 +180,14 @@ impl ControllerNode {
     #[inline(never)]
     pub fn bus_health_frames(
         &mut self,
+        health: &mut BusHealth,
         reading: &BusReading,
         enc: &mut Encoder,
         now_ms: u32,
         tx: &mut impl FnMut(&CanFrame),
     ) -> Result<BusAction, FrameError> {
         let mut out = Outbox::new();
-        let action = self.bus_health(reading, now_ms, &mut out);
+        let action = self.bus_health(health, reading, now_ms, &mut out);
         send(enc, &out, tx)?;
         Ok(action)
     }

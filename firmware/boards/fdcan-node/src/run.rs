@@ -8,8 +8,8 @@ use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
 use trn_node::Outbox;
 use trn_node::{
-    reset_cause, reset_report, seed_from_draws, BusAction, BusState, ControllerNode, NodeConfig,
-    ResetCause, ResetFlags, SeedFailure, SEED_DRAWS,
+    reset_cause, reset_report, seed_from_draws, BusAction, BusHealth, BusState, ControllerNode,
+    NodeConfig, ResetCause, ResetFlags, SEED_DRAWS,
 };
 use trn_protocol::{
     BusMode, Encoder, Envelope, ErrorReport, NodeId, Reassembler, DEFAULT_STALE_MS,
@@ -49,24 +49,33 @@ impl NodeState {
         }
     }
 
-    /// Seeds the guard of the learned tables from the part's hardware RNG's draws
-    /// ([`rng_draws`]; `trn_node::seed_from_draws`), so the node issues the nonces that
-    /// re-seeding, writing in and erasing tables over the bus need (`trn ... --reset-tables`,
-    /// `StoreCommand{Erase}`). On a failure the node stays unseeded and refuses them all
-    /// (`GUARD_REFUSED` reason 5). Call it once, before [`run`].
-    pub fn seed_guard(&mut self, draws: [Option<u32>; SEED_DRAWS]) -> Result<(), SeedFailure> {
-        self.node.seed_guard(seed_from_draws(draws)?);
-        Ok(())
-    }
-
-    /// Takes why the part last reset from its reset `flags` (read from the clock controller
-    /// and cleared by the board) and the record of the panic or hard-fault handler
-    /// ([`crate::recover::take_record`]): announced on the bus at the loop's start with
-    /// `ErrorReport{RESET_CAUSE}`, and returned (to log). Call it once, at boot.
-    pub fn reset_cause(&mut self, flags: ResetFlags) -> (ResetCause, u32) {
-        let cause = reset_cause(flags, crate::recover::take_record(flags.power_on));
-        self.reset = Some(cause);
-        cause
+    /// At boot, before [`run`]: why the part last reset, from its reset `flags` (read from
+    /// the clock controller and cleared by the board) and the record of the panic or
+    /// hard-fault handler ([`crate::recover::take_record`]), logged and announced on the bus
+    /// at the loop's start (`ErrorReport{RESET_CAUSE}`); then the guard of the learned tables
+    /// seeded from the part's hardware RNG ([`rng_draws`], `trn_node::seed_from_draws`), so
+    /// the node issues the nonces that re-seeding, writing in and erasing tables over the bus
+    /// need (`trn ... --reset-tables`, `StoreCommand{Erase}`). An RNG that gives no seed is
+    /// logged, and the node refuses those operations (`GUARD_REFUSED` reason 5).
+    pub async fn boot<T: rng::Instance>(&mut self, flags: ResetFlags, rng: &mut Rng<'_, T>) {
+        let (cause, detail) = reset_cause(flags, crate::recover::take_record(flags.power_on));
+        self.reset = Some((cause, detail));
+        defmt::info!(
+            "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
+            cause as u8,
+            detail
+        );
+        match seed_from_draws(rng_draws(rng).await) {
+            Ok(seed) => {
+                self.node.seed_guard(seed);
+                defmt::info!("guard seeded from the RNG");
+            }
+            Err(e) => defmt::error!(
+                "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
+                e.failed,
+                e.repeated
+            ),
+        }
     }
 
     /// Tells the node what the board restored at boot (`None`: nothing): it announces it
@@ -117,7 +126,7 @@ fn instant_of(at_ms: u32) -> Instant {
 }
 
 /// Runs the controller node on `can` for ever. It first announces why the part reset (when
-/// the board told [`NodeState::reset_cause`]). Each turn hands every received frame to the
+/// the board called [`NodeState::boot`]). Each turn hands every received frame to the
 /// node and runs its timers ([`ControllerNode::service`], the code path of the host and the
 /// QEMU firmware); then the task sleeps until the receive interrupt brings a frame or the
 /// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
@@ -159,9 +168,10 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     let mut port_errors: u32 = 0;
     let mut trials = 0;
     let mut bus = BusState::ErrorActive;
+    let mut health = BusHealth::new();
     loop {
         feed();
-        bus_turn(node, enc, &mut port, &mut bus);
+        bus_turn(node, &mut health, enc, &mut port, &mut bus);
         if let Err(e) = node.service(ctrl, rx, enc, &mut port, now_ms()) {
             port_errors = port_errors.wrapping_add(1);
             defmt::warn!("CAN port: {} ({} so far)", e, port_errors);
@@ -193,6 +203,7 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
 /// made when the node says so, the port kept from queueing frames while the bus is off.
 fn bus_turn(
     node: &mut ControllerNode,
+    health: &mut BusHealth,
     enc: &mut Encoder,
     port: &mut FdcanPort,
     last: &mut BusState,
@@ -201,7 +212,7 @@ fn bus_turn(
     let reading = health::read();
     let mut off = reading.state == BusState::BusOff;
     port.set_off_bus(false);
-    let action = node.bus_health_frames(&reading, enc, now_ms(), &mut |f| {
+    let action = node.bus_health_frames(health, &reading, enc, now_ms(), &mut |f| {
         // reports are sent only when the bus is not off; a full buffer drops them as any
         // frame (the next change is reported again)
         let _ = port.transmit(f);

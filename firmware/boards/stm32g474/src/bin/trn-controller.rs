@@ -114,6 +114,10 @@ async fn main(_spawner: Spawner) {
     let p = embassy_stm32::init(clocks(hse));
     let mut watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_US);
     watchdog.unleash();
+    let node = NODE.take();
+    // the reset cause (logged, announced at the loop's start); the guard seeded from the
+    // part's RNG (HSI48), so tables can be replaced or erased over the bus
+    node.boot(flags, &mut Rng::new(p.RNG, Irqs)).await;
     if !hse {
         defmt::error!("the 24 MHz HSE crystal did not start: running on the HSI");
     }
@@ -138,21 +142,5 @@ async fn main(_spawner: Spawner) {
         bitrate::NOMINAL,
         bitrate::DATA
     );
-    let node = NODE.take();
-    let (cause, detail) = node.reset_cause(flags);
-    defmt::info!(
-        "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
-        cause as u8,
-        detail
-    );
-    // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
-    match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
-        Ok(()) => defmt::info!("guard seeded from the RNG"),
-        Err(e) => defmt::error!(
-            "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
-            e.failed,
-            e.repeated
-        ),
-    }
     trn_fdcan_node::run(can, CONTROLLER.take(), node, || watchdog.pet()).await
 }

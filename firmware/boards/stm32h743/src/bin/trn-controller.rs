@@ -469,21 +469,9 @@ async fn main(_spawner: Spawner) {
             torn
         );
     }
-    let (cause, detail) = node.reset_cause(flags);
-    defmt::info!(
-        "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
-        cause as u8,
-        detail
-    );
-    // the guard's nonces from the part's RNG (HSI48): tables replaced or erased over the bus
-    match node.seed_guard(trn_fdcan_node::rng_draws(&mut Rng::new(p.RNG, Irqs)).await) {
-        Ok(()) => defmt::info!("guard seeded from the RNG"),
-        Err(e) => defmt::error!(
-            "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
-            e.failed,
-            e.repeated
-        ),
-    }
+    // the reset cause (logged, announced at the loop's start); the guard seeded from the
+    // part's RNG (HSI48), so tables can be replaced or erased over the bus
+    node.boot(flags, &mut Rng::new(p.RNG, Irqs)).await;
     node.tables_restored(&mut board, restored);
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
     let running = rcc::frequency::<FDCAN1>();
