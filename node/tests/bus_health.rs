@@ -250,3 +250,21 @@ fn the_reports_are_framed_for_the_bus() {
     );
     assert!(matches!(got[1], Message::ErrorReport(r) if r.code == BUS_COUNTS && r.detail == 0));
 }
+
+#[test]
+fn the_status_reports_end_no_trial() {
+    use trn_node::codes::{aborts_trial, RESET_CAUSE};
+    for code in [BUS_STATE, BUS_COUNTS, RESET_CAUSE] {
+        assert!(!aborts_trial(code), "{code:#x}");
+    }
+    // and they are codes of their own
+    let all = [
+        BUS_STATE,
+        BUS_COUNTS,
+        RESET_CAUSE,
+        trn_node::codes::TABLES_FAILED,
+    ];
+    for (i, a) in all.iter().enumerate() {
+        assert!(all[i + 1..].iter().all(|b| b != a));
+    }
+}
