@@ -66,6 +66,22 @@ pub const SESSION_REQUIRED: u16 = 0x010C;
 /// bounds, 3 other, 0xFE read back differs) or a checkpoint error in bits 16..24.
 pub const TABLES_FAILED: u16 = 0x010D;
 
+/// The node's CAN controller changed state, or lost received frames (sent with
+/// [`BUS_COUNTS`], at most once a second, never while bus-off; `crate::BusCounters`):
+/// detail = `state << 16 | TEC << 8 | REC`, state 0 error-active, 1 error-warning,
+/// 2 error-passive (`crate::BusState`; never 3, bus-off: the report waits until the node is
+/// back on the bus). A status report: nothing stops.
+pub const BUS_STATE: u16 = 0x010E;
+/// The CAN controller's counters, right after [`BUS_STATE`]: detail = `bus-offs << 16 |
+/// receive overruns`, each saturating at 0xFFFF.
+pub const BUS_COUNTS: u16 = 0x010F;
+
+/// Sent once at boot by a board: why the part last reset (`crate::reset`); detail =
+/// `cause << 24 | detail`: cause 0 unknown, 1 power-on or brown-out, 2 reset pin, 3
+/// watchdog, 4 panic (detail: its source line), 5 hard fault (detail: the low 24 bits of the
+/// faulting instruction's address), 6 another software reset. A status report.
+pub const RESET_CAUSE: u16 = 0x0110;
+
 /// `TABLES_FAILED` operations (bits 8..16 of the detail).
 pub mod table_op {
     /// Reading a chunk out (`TableReadRequest`).

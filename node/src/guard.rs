@@ -29,6 +29,52 @@ pub fn op_code(op: GuardOp) -> u32 {
     op as u32 + 1
 }
 
+/// Draws a board takes from its hardware RNG for the guard's seed ([`seed_from_draws`]).
+pub const SEED_DRAWS: usize = 16;
+
+/// Why no seed came out of a hardware RNG's draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SeedFailure {
+    /// Draws that failed (the RNG's seed or clock error, a timeout, a zero word).
+    pub failed: u8,
+    /// Draws that repeated a word already taken (a stuck RNG).
+    pub repeated: u8,
+}
+
+/// The guard's seed from a hardware RNG's draws, each a word or `None` for a draw that
+/// failed: the first four distinct non-zero words of at most [`SEED_DRAWS`] draws. A zero
+/// word (what an STM32's RNG reads after a seed error) and a word already taken (an RNG
+/// stuck on one value) are skipped; fewer than four good words is a [`SeedFailure`], and the
+/// node then stays unseeded (it refuses every guarded operation, `GUARD_REFUSED` reason 5).
+pub fn seed_from_draws(
+    draws: impl IntoIterator<Item = Option<u32>>,
+) -> Result<[u8; 16], SeedFailure> {
+    let mut words = [0u32; 4];
+    let mut taken = 0;
+    let mut failure = SeedFailure {
+        failed: 0,
+        repeated: 0,
+    };
+    for draw in draws.into_iter().take(SEED_DRAWS) {
+        match draw {
+            None | Some(0) => failure.failed += 1,
+            Some(w) if words[..taken].contains(&w) => failure.repeated += 1,
+            Some(w) => {
+                words[taken] = w;
+                taken += 1;
+                if taken == words.len() {
+                    let mut seed = [0u8; 16];
+                    for (chunk, w) in seed.chunks_exact_mut(4).zip(words) {
+                        chunk.copy_from_slice(&w.to_le_bytes());
+                    }
+                    return Ok(seed);
+                }
+            }
+        }
+    }
+    Err(failure)
+}
+
 /// xoshiro128++ (Blackman and Vigna), the generator of `rand_xoshiro::Xoshiro128PlusPlus`,
 /// written out so that a node is built by a `const fn` (the firmware's is a `static`); a test
 /// checks it against the crate. The all-zero state, which the algorithm never leaves or

@@ -19,6 +19,7 @@ use crate::codes;
 use crate::config::NodeConfig;
 use crate::exchange::{GaveUp, Pending, ServoAnswer};
 use crate::guard::{op_code, Guard};
+use crate::health::{BusAction, BusCounters, BusHealth, BusReading};
 use crate::outbox::{push, send, FrameError, Outbox};
 pub use crate::stats::NodeStats;
 
@@ -132,6 +133,7 @@ impl ControllerNode {
                 ignored: 0,
                 frame_errors: 0,
                 estimated: 0,
+                bus: BusCounters::ZERO,
             },
         }
     }
@@ -152,6 +154,42 @@ impl ControllerNode {
     /// Counters.
     pub fn stats(&self) -> &NodeStats {
         &self.stats
+    }
+
+    /// Takes a board's reading of its CAN controller (a turn's, before
+    /// [`ControllerNode::service`]) into the policy's state `health` (the board's, one for
+    /// the node's life): the counters of [`NodeStats::bus`] updated, the health
+    /// reports pushed into `out` when due (`BUS_STATE` and `BUS_COUNTS`, protocol/SPEC.md
+    /// section 7), and what the board must do: [`BusAction::Restart`] once a bus-off's
+    /// hold-off has passed (`health.rs` has the policy). While the reading says bus-off, the
+    /// board drops what the node sends.
+    pub fn bus_health(
+        &mut self,
+        health: &mut BusHealth,
+        reading: &BusReading,
+        now_ms: u32,
+        out: &mut Outbox,
+    ) -> BusAction {
+        let action = health.update(&mut self.stats.bus, reading, now_ms);
+        health.report(&mut self.stats.bus, now_ms, out);
+        action
+    }
+
+    /// [`ControllerNode::bus_health`] with the reports encoded and passed to `tx` (a board's
+    /// loop calls this; its outbox lives only in this call's frame).
+    #[inline(never)]
+    pub fn bus_health_frames(
+        &mut self,
+        health: &mut BusHealth,
+        reading: &BusReading,
+        enc: &mut Encoder,
+        now_ms: u32,
+        tx: &mut impl FnMut(&CanFrame),
+    ) -> Result<BusAction, FrameError> {
+        let mut out = Outbox::new();
+        let action = self.bus_health(health, reading, now_ms, &mut out);
+        send(enc, &out, tx)?;
+        Ok(action)
     }
 
     pub(crate) fn count_frame_error(&mut self) {

@@ -1,5 +1,7 @@
 //! The controller node's counters.
 
+use crate::health::BusCounters;
+
 /// Counters of what the node saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct NodeStats {
@@ -21,4 +23,7 @@ pub struct NodeStats {
     pub frame_errors: u32,
     /// Observations with an estimated point that were used (trials that do not learn).
     pub estimated: u32,
+    /// The CAN controller's state and counters, as the board reads them
+    /// ([`crate::ControllerNode::bus_health`]; zero where nothing reads them).
+    pub bus: BusCounters,
 }

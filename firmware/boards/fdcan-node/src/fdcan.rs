@@ -39,8 +39,8 @@ impl KernelClock {
 /// bit-rate switching allowed (each frame is sent classical or FD as the protocol's frame
 /// says, so the node serves CAN 2.0 and CAN FD sessions alike), frames sent strictly in the
 /// order written (the segments of a message must not overtake each other), standard-id data
-/// frames received into FIFO 0 and everything else rejected by the peripheral, automatic
-/// recovery from bus-off.
+/// frames received into FIFO 0 and everything else rejected by the peripheral, no automatic
+/// recovery from bus-off (the loop restarts it after a hold-off, [`crate::health`]).
 ///
 /// `running` is the kernel clock the peripheral really has
 /// (`embassy_stm32::rcc::frequency::<FDCAN1>()`); when it is not `clock`, the timings would
@@ -64,7 +64,7 @@ pub fn start<const TX: usize, const RX: usize>(
         .set_global_filter(
             GlobalFilter::reject_all().set_handle_standard_frames(NonMatchingFilter::IntoRxFifo0),
         )
-        .set_automatic_bus_off_recovery(true);
+        .set_automatic_bus_off_recovery(false);
     can.set_config(config);
     Ok(can
         .start(OperatingMode::NormalOperationMode)

@@ -12,6 +12,8 @@
 //!   node's [`trn_node::ControllerNode::poll_timeout`], with embassy-time's clock as `now_ms`;
 //!   it logs each trial with the node's counters and the stack's high-water mark
 //!   ([`stack_high_water_mark`]), and feeds the board's watchdog once a turn.
+//! - [`health`]: FDCAN1's error counters, fault confinement state and receive overruns read
+//!   each turn for the node's health policy, and the restart after a bus-off's hold-off.
 //! - [`recover`]: a panic or a hard fault logs its cause and resets the part; the HSE's start
 //!   bounded ([`recover::hse_started`]).
 //!
@@ -23,6 +25,7 @@
 
 pub mod bitrate;
 mod fdcan;
+pub mod health;
 mod port;
 pub mod recover;
 mod run;
@@ -30,7 +33,9 @@ mod stack;
 
 pub use fdcan::{start, Fdcan, KernelClock};
 pub use port::{FdcanPort, PortError};
-pub use run::{now_ms, run, NodeState};
+pub use run::{now_ms, rng_draws, run, NodeState};
 pub use stack::stack_high_water_mark;
 /// The node's timing and save settings ([`NodeState::with_config`]).
 pub use trn_node::NodeConfig;
+/// The reset flags a board reads at boot ([`NodeState::reset_cause`]).
+pub use trn_node::ResetFlags;

@@ -48,6 +48,10 @@ pub struct FdcanPort {
     /// Received frames that are not the protocol's (the peripheral's filters let only
     /// standard-id data frames through, so this stays 0 unless they are changed).
     foreign: u32,
+    /// The controller is off the bus: frames to send are dropped, not queued.
+    off_bus: bool,
+    /// Frames dropped while off the bus.
+    dropped: u32,
 }
 
 impl FdcanPort {
@@ -58,7 +62,21 @@ impl FdcanPort {
             writer,
             waited: None,
             foreign: 0,
+            off_bus: false,
+            dropped: 0,
         }
+    }
+
+    /// Whether the controller is off the bus (bus-off, waiting for its restart): frames to
+    /// send are then dropped and counted ([`FdcanPort::dropped_off_bus`]) rather than left
+    /// to go out, stale, once it rejoins.
+    pub fn set_off_bus(&mut self, off: bool) {
+        self.off_bus = off;
+    }
+
+    /// Frames dropped while the controller was off the bus.
+    pub fn dropped_off_bus(&self) -> u32 {
+        self.dropped
     }
 
     /// The receive buffer, to wait on for the next frame.
@@ -113,6 +131,10 @@ impl embedded_can::nb::Can for FdcanPort {
     type Error = PortError;
 
     fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, PortError> {
+        if self.off_bus {
+            self.dropped = self.dropped.wrapping_add(1);
+            return Ok(None);
+        }
         let out = to_driver(frame).ok_or(nb::Error::Other(PortError::FrameRejected))?;
         self.writer
             .try_write(out)

@@ -2,13 +2,21 @@
 //! node's next timeout, with embassy-time's clock as the node's milliseconds.
 
 use embassy_futures::select::{select, Either};
-use embassy_time::{Duration, Instant, Timer};
+use embassy_stm32::rng::{self, Rng};
+use embassy_time::{with_timeout, Duration, Instant, Timer};
 use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
-use trn_node::{ControllerNode, NodeConfig};
-use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
+use trn_node::Outbox;
+use trn_node::{
+    reset_cause, reset_report, seed_from_draws, BusAction, BusHealth, BusState, ControllerNode,
+    NodeConfig, ResetCause, ResetFlags, SEED_DRAWS,
+};
+use trn_protocol::{
+    BusMode, Encoder, Envelope, ErrorReport, NodeId, Reassembler, DEFAULT_STALE_MS,
+};
 
 use crate::fdcan::Fdcan;
+use crate::health;
 use crate::port::FdcanPort;
 
 /// The node's state beside the controller: the node, the frame encoder (CAN 2.0 until a
@@ -18,6 +26,8 @@ pub struct NodeState {
     node: ControllerNode,
     enc: Encoder,
     rx: Reassembler,
+    /// Why the part last reset, announced at the loop's start.
+    reset: Option<(ResetCause, u32)>,
 }
 
 impl NodeState {
@@ -35,6 +45,36 @@ impl NodeState {
             node: ControllerNode::new(cfg),
             enc: Encoder::new(BusMode::Classic),
             rx: Reassembler::new(DEFAULT_STALE_MS),
+            reset: None,
+        }
+    }
+
+    /// At boot, before [`run`]: why the part last reset, from its reset `flags` (read from
+    /// the clock controller and cleared by the board) and the record of the panic or
+    /// hard-fault handler ([`crate::recover::take_record`]), logged and announced on the bus
+    /// at the loop's start (`ErrorReport{RESET_CAUSE}`); then the guard of the learned tables
+    /// seeded from the part's hardware RNG ([`rng_draws`], `trn_node::seed_from_draws`), so
+    /// the node issues the nonces that re-seeding, writing in and erasing tables over the bus
+    /// need (`trn ... --reset-tables`, `StoreCommand{Erase}`). An RNG that gives no seed is
+    /// logged, and the node refuses those operations (`GUARD_REFUSED` reason 5).
+    pub async fn boot<T: rng::Instance>(&mut self, flags: ResetFlags, rng: &mut Rng<'_, T>) {
+        let (cause, detail) = reset_cause(flags, crate::recover::take_record(flags.power_on));
+        self.reset = Some((cause, detail));
+        defmt::info!(
+            "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
+            cause as u8,
+            detail
+        );
+        match seed_from_draws(rng_draws(rng).await) {
+            Ok(seed) => {
+                self.node.seed_guard(seed);
+                defmt::info!("guard seeded from the RNG");
+            }
+            Err(e) => defmt::error!(
+                "the RNG gave no seed ({} draws failed, {} repeated): tables cannot be replaced or erased over the bus",
+                e.failed,
+                e.repeated
+            ),
         }
     }
 
@@ -50,6 +90,22 @@ impl Default for NodeState {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// [`SEED_DRAWS`] words drawn from the part's RNG (embassy's driver), each bounded by
+/// 10 ms: `None` for a draw that failed (a seed or clock error of the RNG, or no word in
+/// time).
+pub async fn rng_draws<T: rng::Instance>(rng: &mut Rng<'_, T>) -> [Option<u32>; SEED_DRAWS] {
+    let mut draws = [None; SEED_DRAWS];
+    for draw in &mut draws {
+        let mut word = [0u8; 4];
+        if let Ok(Ok(())) =
+            with_timeout(Duration::from_millis(10), rng.async_fill_bytes(&mut word)).await
+        {
+            *draw = Some(u32::from_le_bytes(word));
+        }
+    }
+    draws
 }
 
 /// The node's clock: milliseconds since boot, wrapping after 49.7 days (the node compares
@@ -69,12 +125,20 @@ fn instant_of(at_ms: u32) -> Instant {
     }
 }
 
-/// Runs the controller node on `can` for ever. Each turn hands every received frame to the
+/// Runs the controller node on `can` for ever. It first announces why the part reset (when
+/// the board called [`NodeState::boot`]). Each turn hands every received frame to the
 /// node and runs its timers ([`ControllerNode::service`], the code path of the host and the
 /// QEMU firmware); then the task sleeps until the receive interrupt brings a frame or the
 /// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
 /// the request it waits on). Port errors (bus errors, a full transmit buffer) are logged and
 /// counted; the node's own repeats recover what they cost.
+///
+/// Each turn first reads FDCAN1's health ([`health::read`]) into the node
+/// ([`ControllerNode::bus_health_frames`]: its counters in the node's statistics, its
+/// `BUS_STATE`/`BUS_COUNTS` reports sent when the state changes): while the peripheral is
+/// bus-off the node's frames are dropped, and once the node's hold-off has passed the
+/// peripheral is restarted ([`health::restart`]). A bus-off is seen within a turn (at most a
+/// heartbeat period, 100 ms).
 ///
 /// `feed` feeds the board's independent watchdog: called once a turn, and a turn comes at
 /// least every heartbeat period (100 ms), so a loop that stops turning (a hang, a lost
@@ -91,12 +155,23 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     state: &mut NodeState,
     mut feed: impl FnMut(),
 ) -> ! {
-    let NodeState { node, enc, rx } = state;
+    let NodeState {
+        node,
+        enc,
+        rx,
+        reset,
+    } = state;
     let mut port = FdcanPort::new(can.reader(), can.writer());
+    if let Some((cause, detail)) = reset.take() {
+        announce(enc, &mut port, reset_report(cause, detail));
+    }
     let mut port_errors: u32 = 0;
     let mut trials = 0;
+    let mut bus = BusState::ErrorActive;
+    let mut health = BusHealth::new();
     loop {
         feed();
+        bus_turn(node, &mut health, enc, &mut port, &mut bus);
         if let Err(e) = node.service(ctrl, rx, enc, &mut port, now_ms()) {
             port_errors = port_errors.wrapping_add(1);
             defmt::warn!("CAN port: {} ({} so far)", e, port_errors);
@@ -122,4 +197,66 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
             }
         }
     }
+}
+
+/// A turn's reading of FDCAN1's health handed to the node; its reports queued, a restart
+/// made when the node says so, the port kept from queueing frames while the bus is off.
+fn bus_turn(
+    node: &mut ControllerNode,
+    health: &mut BusHealth,
+    enc: &mut Encoder,
+    port: &mut FdcanPort,
+    last: &mut BusState,
+) {
+    use embedded_can::nb::Can;
+    let reading = health::read();
+    let mut off = reading.state == BusState::BusOff;
+    port.set_off_bus(false);
+    let action = node.bus_health_frames(health, &reading, enc, now_ms(), &mut |f| {
+        // reports are sent only when the bus is not off; a full buffer drops them as any
+        // frame (the next change is reported again)
+        let _ = port.transmit(f);
+    });
+    if reading.state != *last {
+        let c = node.stats().bus;
+        defmt::warn!(
+            "CAN {}: TEC {}, REC {} (bus-offs {}, error-passive {}, receive overruns {}, frames dropped while off {})",
+            state_name(reading.state),
+            reading.tec,
+            reading.rec,
+            c.bus_offs,
+            c.passives,
+            c.overruns,
+            port.dropped_off_bus()
+        );
+        *last = reading.state;
+    }
+    if let Ok(BusAction::Restart) = action {
+        health::restart();
+        off = false;
+        defmt::warn!(
+            "CAN bus-off: restart {} after its hold-off, pending frames aborted",
+            node.stats().bus.restarts
+        );
+    }
+    port.set_off_bus(off);
+}
+
+fn state_name(s: BusState) -> &'static str {
+    match s {
+        BusState::ErrorActive => "error-active",
+        BusState::ErrorWarning => "error-warning",
+        BusState::ErrorPassive => "error-passive",
+        BusState::BusOff => "bus-off",
+    }
+}
+
+/// Sends one report of the node's, outside its turns (the reset cause at boot).
+fn announce(enc: &mut Encoder, port: &mut FdcanPort, report: ErrorReport) {
+    use embedded_can::nb::Can;
+    let mut out = Outbox::new();
+    let _ = out.push(Envelope::new(NodeId::Controller, report.into()));
+    let _ = trn_node::send(enc, &out, &mut |f| {
+        let _ = port.transmit(f);
+    });
 }

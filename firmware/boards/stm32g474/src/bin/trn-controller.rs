@@ -14,17 +14,19 @@
 use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_stm32::can::{self, RxFdBuf, TxFdBuf};
-use embassy_stm32::peripherals::FDCAN1;
+use embassy_stm32::peripherals::{self, FDCAN1};
+use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
 use static_cell::ConstStaticCell;
 use trn_controller::Controller;
-use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState};
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState, ResetFlags};
 
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
     FDCAN1_IT1 => can::IT1InterruptHandler<FDCAN1>;
+    RNG => rng::InterruptHandler<peripherals::RNG>;
 });
 
 /// The FDCAN kernel clock of `clocks()`: the 24 MHz crystal.
@@ -92,12 +94,30 @@ fn clocks(hse: bool) -> embassy_stm32::Config {
     config
 }
 
+/// The reset flags (RCC CSR: a power-on also sets the brown-out flag), then cleared.
+fn reset_flags() -> ResetFlags {
+    use embassy_stm32::pac::RCC;
+    let r = RCC.csr().read();
+    RCC.csr().modify(|w| w.set_rmvf(true));
+    ResetFlags {
+        power_on: r.borrstf(),
+        pin: r.pinrstf(),
+        watchdog: r.iwdgrstf() || r.wwdgrstf(),
+        software: r.sftrstf(),
+    }
+}
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    let flags = reset_flags();
     let hse = hse_starts();
     let p = embassy_stm32::init(clocks(hse));
     let mut watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_US);
     watchdog.unleash();
+    let node = NODE.take();
+    // the reset cause (logged, announced at the loop's start); the guard seeded from the
+    // part's RNG (HSI48), so tables can be replaced or erased over the bus
+    node.boot(flags, &mut Rng::new(p.RNG, Irqs)).await;
     if !hse {
         defmt::error!("the 24 MHz HSE crystal did not start: running on the HSI");
     }
@@ -122,5 +142,5 @@ async fn main(_spawner: Spawner) {
         bitrate::NOMINAL,
         bitrate::DATA
     );
-    trn_fdcan_node::run(can, CONTROLLER.take(), NODE.take(), || watchdog.pet()).await
+    trn_fdcan_node::run(can, CONTROLLER.take(), node, || watchdog.pet()).await
 }

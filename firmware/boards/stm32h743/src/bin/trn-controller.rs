@@ -19,19 +19,21 @@
 use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_stm32::can::{self, RxFdBuf, TxFdBuf};
-use embassy_stm32::peripherals::FDCAN1;
+use embassy_stm32::peripherals::{self, FDCAN1};
+use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
 use static_cell::ConstStaticCell;
 use trn_controller::{Controller, WithStore};
-use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState};
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState, ResetFlags};
 use trn_store::policy::{steps_between_saves, Endurance};
 use trn_store::RestoreError;
 
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
     FDCAN1_IT1 => can::IT1InterruptHandler<FDCAN1>;
+    RNG => rng::InterruptHandler<peripherals::RNG>;
 });
 
 /// The FDCAN kernel clock of `clocks()`: PLL1 Q, 8 MHz / 1 * 100 / 10.
@@ -391,8 +393,22 @@ fn clocks(hse: bool) -> embassy_stm32::Config {
     config
 }
 
+/// The reset flags (RCC RSR: a power-on also sets the brown-out flag), then cleared.
+fn reset_flags() -> ResetFlags {
+    use embassy_stm32::pac::RCC;
+    let r = RCC.rsr().read();
+    RCC.rsr().modify(|w| w.set_rmvf(true));
+    ResetFlags {
+        power_on: r.porrstf() || r.borrstf(),
+        pin: r.pinrstf(),
+        watchdog: r.iwdg1rstf() || r.wwdg1rstf(),
+        software: r.sftrstf(),
+    }
+}
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    let flags = reset_flags();
     let hse = hse_starts();
     let p = embassy_stm32::init(clocks(hse));
     let mut watchdog = IndependentWatchdog::new(p.IWDG1, WATCHDOG_US);
@@ -453,6 +469,9 @@ async fn main(_spawner: Spawner) {
             torn
         );
     }
+    // the reset cause (logged, announced at the loop's start); the guard seeded from the
+    // part's RNG (HSI48), so tables can be replaced or erased over the bus
+    node.boot(flags, &mut Rng::new(p.RNG, Irqs)).await;
     node.tables_restored(&mut board, restored);
     let configurator = can::CanConfigurator::new(p.FDCAN1, p.PD0, p.PD1, Irqs);
     let running = rcc::frequency::<FDCAN1>();
