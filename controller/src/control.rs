@@ -3,10 +3,11 @@
 //! controller outside this crate (the simulator's model-based reference), so that every
 //! controller runs in the same node, over every bus.
 
-use crate::config::Config;
+use crate::config::{Config, Law};
 use crate::controller::{Command, Controller, Observation, Task};
 use crate::error::Result;
 use crate::persist::TableStore;
+use crate::presets::{Ablation, ImageSize, Preset, Profile};
 use crate::trial::FineMoves;
 
 /// A controller as the node drives it: tasks and observations in, commands out.
@@ -25,6 +26,31 @@ pub trait Control {
     fn set_config(&mut self, cfg: Config) -> Result<()>;
     /// New initial tables (or whatever the law starts from) from `seed`.
     fn init_random(&mut self, seed: u64);
+    /// The configuration a session's profile gives this controller, and its fingerprint
+    /// (SPEC.md 3.2, 3.2.1); `law` is the session's law byte. The default serves this
+    /// crate's laws ([`Law::decode`]: a host-side law's code is
+    /// [`crate::Error::UnsupportedLaw`]); a host-side controller serves its own code.
+    fn session_config(
+        &self,
+        preset: Preset,
+        ablation: Ablation,
+        law: u8,
+        image: ImageSize,
+    ) -> Result<(Config, u32)> {
+        let law = Law::decode(law)?;
+        let cfg = Profile {
+            preset,
+            ablation,
+            law,
+        }
+        .config(image);
+        Ok((cfg, cfg.fingerprint()))
+    }
+    /// The fingerprint of the configuration in force (SPEC.md 3.2.1): a host-side law's is
+    /// taken with its own law code ([`Config::fingerprint_as`]).
+    fn fingerprint(&self) -> u32 {
+        self.config().fingerprint()
+    }
     /// The TRN tables this controller holds and the store that keeps them, for a node that
     /// reads them out, writes them in, saves them and guards them; `None` for a controller
     /// without such tables (the default: nothing of it to read, write or lose).
@@ -99,6 +125,20 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
 
     fn init_random(&mut self, seed: u64) {
         (**self).init_random(seed)
+    }
+
+    fn session_config(
+        &self,
+        preset: Preset,
+        ablation: Ablation,
+        law: u8,
+        image: ImageSize,
+    ) -> Result<(Config, u32)> {
+        (**self).session_config(preset, ablation, law, image)
+    }
+
+    fn fingerprint(&self) -> u32 {
+        (**self).fingerprint()
     }
 
     fn tables(&mut self) -> Option<Tables<'_>> {

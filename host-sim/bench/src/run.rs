@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use trn_controller::checkpoint::Provenance;
-use trn_controller::{Control, Law};
+use trn_controller::Control;
 use trn_node::ControllerNode;
 use trn_plant::Plant;
 use trn_protocol::bus::BusStats;
@@ -25,7 +25,7 @@ use crate::report::Report;
 use crate::rig::SharedPlant;
 use crate::session::{Setup, Start};
 use crate::sim_state;
-use crate::spec::{Command, RunSpec};
+use crate::spec::{Command, ControllerChoice, RunSpec};
 use crate::suite::{no_suite, NoSuite, Suite};
 use crate::tables::opening::{Opening, Want};
 use trn_transport::board;
@@ -97,7 +97,7 @@ pub fn run_with<S: Suite>(
     let cfg = spec.controller_config();
     // the run parameters go to the controller over the bus; a tuning configuration that no
     // profile describes is given to the in-process controller directly instead
-    let described = spec.profile_config().fingerprint() == cfg.fingerprint();
+    let described = spec.described();
     let want = match (image, spec.command) {
         (Some(bytes), _) => Want::Image(bytes),
         (None, Command::Eval | Command::Grasp) => Want::Held { or_new: false },
@@ -108,7 +108,7 @@ pub fn run_with<S: Suite>(
         want,
         reset: spec.reset_tables,
         session: spec.session_config(false),
-        fingerprint: cfg.fingerprint(),
+        fingerprint: spec.fingerprint(),
         image: spec.image(),
         needs_tables: [
             (spec.tables.is_some(), "--tables"),
@@ -135,12 +135,12 @@ pub fn run_with<S: Suite>(
     let mut rows = crate::trial_csv::TrialRows::new(observer, spec.outputs.csv.is_some());
     let mut setup = Setup::new(start, &mut rows, suite);
     match profile.controller {
-        ControllerSite::Inline if cfg.law == Law::Model => {
+        ControllerSite::Inline if spec.profile.law == ControllerChoice::Model => {
             // the model-based reference: the simulator's own model, in process only
             let reference = Box::new(NominalIk::new(&spec.plant, cfg)?);
             inline(&mut setup, reference, None, plant, &mut report)?;
         }
-        ControllerSite::Inline if cfg.law == Law::Oracle => {
+        ControllerSite::Inline if spec.profile.law == ControllerChoice::Oracle => {
             // the physical limit: it reads the plant the rig moves
             let shared: SharedPlant = std::rc::Rc::new(std::cell::RefCell::new(plant));
             let oracle = Box::new(Oracle::new(shared.clone(), cfg));
