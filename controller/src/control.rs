@@ -57,6 +57,11 @@ pub trait Control {
     fn tables(&mut self) -> Option<Tables<'_>> {
         None
     }
+    /// The project's controller this is or holds, for a reader of its tables (a host that
+    /// checkpoints them while a run goes on); `None` for another controller (the default).
+    fn controller(&self) -> Option<&Controller> {
+        None
+    }
 }
 
 impl Control for Controller {
@@ -93,6 +98,10 @@ impl Control for Controller {
             ctrl: self,
             store: None,
         })
+    }
+
+    fn controller(&self) -> Option<&Controller> {
+        Some(self)
     }
 }
 
@@ -143,6 +152,10 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
 
     fn tables(&mut self) -> Option<Tables<'_>> {
         (**self).tables()
+    }
+
+    fn controller(&self) -> Option<&Controller> {
+        (**self).controller()
     }
 }
 
@@ -196,5 +209,8 @@ where
             ctrl: &mut self.ctrl,
             store: Some(&mut self.store),
         })
+    }
+    fn controller(&self) -> Option<&Controller> {
+        Some(&self.ctrl)
     }
 }

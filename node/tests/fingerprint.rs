@@ -6,7 +6,7 @@
 //! spec and the code cannot drift apart.
 
 use trn_controller::config::{Rate, StageConfig, TimeDecay};
-use trn_controller::presets::{configure, Ablation, ImageSize, Preset};
+use trn_controller::presets::{configure, Ablation, ImageSize, Preset, Profile};
 use trn_controller::{Config, Law};
 
 /// The bytes of SPEC.md 3.2.1: f32 little endian, u8 as is, u16 and u32 as varints, an
@@ -147,10 +147,12 @@ fn the_specs_formula_gives_every_configurations_fingerprint() {
                 // code)
                 for code in 0..Law::WIRE_CODES {
                     let law = Law::decode(code).unwrap_or(Law::Trn);
-                    let cfg = Config {
+                    let cfg = Profile {
+                        preset,
+                        ablation,
                         law,
-                        ..configure(preset, ablation, image)
-                    };
+                    }
+                    .config(image);
                     let bytes = Bytes::config_as(&cfg, code);
                     let fp = cfg.fingerprint_as(code);
                     assert_eq!(

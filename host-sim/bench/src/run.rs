@@ -19,7 +19,6 @@ use crate::error::{LabError, Result};
 use crate::observe::Observer;
 use crate::oracle::Oracle;
 use crate::output::OutputPlan;
-use crate::ports::ControllerPort;
 use crate::reference::NominalIk;
 use crate::report::Report;
 use crate::rig::SharedPlant;
@@ -57,13 +56,10 @@ pub fn run_with<S: Suite>(
     // the simulation of the run that wrote it
     let mut resume = None;
     let mut image = None;
+    let configs = spec.controller();
     if let Some(p) = &spec.checkpoint_in {
-        let (bytes, header, file) = checkpoint_file::image_for(
-            p,
-            &spec.profile_config(),
-            provenance,
-            spec.allow_config_change,
-        )?;
+        let (bytes, header, file) =
+            checkpoint_file::image_for(p, &configs.profile, provenance, spec.allow_config_change)?;
         plan.first_trial = header.t1 as usize;
         let beside = sim_state::path_beside(p);
         if plan.resume {
@@ -94,21 +90,20 @@ pub fn run_with<S: Suite>(
         }
         image = Some(bytes);
     }
-    let cfg = spec.controller_config();
-    // the run parameters go to the controller over the bus; a tuning configuration that no
-    // profile describes is given to the in-process controller directly instead
-    let described = spec.described();
+    let cfg = configs.run;
     let want = match (image, spec.command) {
         (Some(bytes), _) => Want::Image(bytes),
         (None, Command::Eval | Command::Grasp) => Want::Held { or_new: false },
         (None, _) if spec.keep_tables => Want::Held { or_new: true },
         (None, _) => Want::New,
     };
-    let opening = described.then(|| Opening {
+    // the run parameters go to the controller over the bus; a tuning configuration that no
+    // profile describes is given to the in-process controller directly instead
+    let opening = configs.described.then(|| Opening {
         want,
         reset: spec.reset_tables,
         session: spec.session_config(false),
-        fingerprint: spec.fingerprint(),
+        fingerprint: configs.fingerprint,
         image: spec.image(),
         needs_tables: [
             (spec.tables.is_some(), "--tables"),
@@ -230,10 +225,7 @@ fn inline<C: Control + ?Sized, S: Suite>(
     node: Option<ControllerNode>,
     plant: Plant,
     report: &mut Report,
-) -> Result<()>
-where
-    SimulatedBus<C>: ControllerPort,
-{
+) -> Result<()> {
     let shared = std::rc::Rc::new(std::cell::RefCell::new(plant));
     inline_shared(setup, ctrl, node, shared, report)
 }
@@ -245,10 +237,7 @@ fn inline_shared<C: Control + ?Sized, S: Suite>(
     node: Option<ControllerNode>,
     plant: SharedPlant,
     report: &mut Report,
-) -> Result<()>
-where
-    SimulatedBus<C>: ControllerPort,
-{
+) -> Result<()> {
     let spec = setup.spec();
     let mode = if spec.bus.fd {
         BusMode::Fd

@@ -168,6 +168,21 @@ impl Profile {
     }
 }
 
+/// A run's controller configuration ([`RunSpec::controller`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunConfig {
+    /// The profile's configuration (a checkpoint's header is checked against it).
+    pub profile: Config,
+    /// The run's: the override, else the profile's.
+    pub run: Config,
+    /// The fingerprint the run's controller announces for it (SPEC.md 3.2.1).
+    pub fingerprint: u32,
+    /// The profile describes the run's configuration (no override, or one that is the
+    /// profile's): the run parameters then go to the controller over the bus; a tuning
+    /// configuration is given to the in-process controller directly.
+    pub described: bool,
+}
+
 /// The bus of a run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BusChoice {
@@ -348,15 +363,19 @@ impl RunSpec {
             .unwrap_or_else(|| self.profile_config())
     }
 
-    /// The fingerprint the run's controller announces for its configuration (SPEC.md 3.2.1).
-    pub fn fingerprint(&self) -> u32 {
-        self.profile.fingerprint_of(&self.controller_config())
-    }
-
-    /// True when the profile describes the run's configuration (no override, or one that
-    /// is the profile's): the run parameters then go to the controller over the bus.
-    pub fn described(&self) -> bool {
-        self.fingerprint() == self.profile.fingerprint_of(&self.profile_config())
+    /// The run's controller configuration, built once: the profile's, the run's (the
+    /// override, else the profile's), the fingerprint it is announced under, and whether the
+    /// profile describes it.
+    pub fn controller(&self) -> RunConfig {
+        let profile = self.profile_config();
+        let run = self.controller_override.unwrap_or(profile);
+        let fingerprint = self.profile.fingerprint_of(&run);
+        RunConfig {
+            profile,
+            run,
+            fingerprint,
+            described: fingerprint == self.profile.fingerprint_of(&profile),
+        }
     }
 
     /// The session's run parameters for the controller (SPEC.md 3.2).
@@ -497,7 +516,11 @@ mod tests {
             );
             let mut s = RunSpec::new(Command::Train, 1);
             s.profile = p;
-            assert!(s.described());
+            assert!(s.controller().described);
+            assert_eq!(
+                s.controller().fingerprint,
+                p.config(image).fingerprint_as(code)
+            );
             assert_eq!(s.session_config(false).law, code);
         }
     }
