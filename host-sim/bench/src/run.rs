@@ -49,7 +49,8 @@ pub fn run_with<S: Suite>(
     spec.check()?;
     let outputs = OutputPlan::check(spec)?;
     let started = Instant::now();
-    let plant = Plant::new(&spec.plant, spec.seed)?;
+    let seeds = crate::seeds::Seeds::of(spec.seed);
+    let plant = Plant::new(&spec.plant, seeds.plant)?;
     let mut plan = spec.plan;
     let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
     // a checkpoint's schedule goes on from the trials it learned; `--continue` also restores
@@ -152,12 +153,12 @@ pub fn run_with<S: Suite>(
                 ));
             }
             if setup.opening().is_none() {
-                b.ctrl.init_random(spec.seed);
+                b.ctrl.init_random(seeds.tables);
             }
             let node = board::node(
                 &mut b,
                 restored.ok(),
-                board::guard_seed(spec.seed),
+                board::guard_seed(seeds.guard),
                 node_config(spec),
             );
             inline(&mut setup, Box::new(b), Some(node), plant, &mut report)?;
@@ -245,7 +246,8 @@ fn inline_shared<C: Control + ?Sized, S: Suite>(
         BusMode::Classic
     };
     let node = node.unwrap_or_else(|| ControllerNode::new(node_config(spec)));
-    let bus = SimulatedBus::with_node(mode, spec.seed, spec.bus.faults, ctrl, node);
+    let seeds = crate::seeds::Seeds::of(spec.seed);
+    let bus = SimulatedBus::with_node(mode, seeds.faults, spec.bus.faults, ctrl, node);
     let clock = bus.clock();
     let bus = setup.drive(bus, std::rc::Rc::new(clock), plant, report)?;
     report.bus_stats.injected = Some(injected(&bus.bus_stats()));

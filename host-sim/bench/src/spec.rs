@@ -382,7 +382,7 @@ impl RunSpec {
     pub fn session_config(&self, keep_tables: bool) -> SessionConfig {
         let image = self.image();
         SessionConfig {
-            seed: self.seed,
+            seed: crate::seeds::Seeds::of(self.seed).tables,
             preset: self.profile.preset as u8,
             ablation: self.profile.ablation as u8,
             image_width: image.width,
