@@ -7,7 +7,7 @@ use crate::config::{Config, Law};
 use crate::controller::{Command, Controller, Observation, Task};
 use crate::error::Result;
 use crate::persist::TableStore;
-use crate::presets::{Ablation, ImageSize, Preset, Profile};
+use crate::presets::{Profile, SessionProfile};
 use crate::trial::FineMoves;
 
 /// A controller as the node drives it: tasks and observations in, commands out.
@@ -27,23 +27,16 @@ pub trait Control {
     /// New initial tables (or whatever the law starts from) from `seed`.
     fn init_random(&mut self, seed: u64);
     /// The configuration a session's profile gives this controller, and its fingerprint
-    /// (SPEC.md 3.2, 3.2.1); `law` is the session's law byte. The default serves this
+    /// (SPEC.md 3.2, 3.2.1), with the session's law byte. The default serves this
     /// crate's laws ([`Law::decode`]: a host-side law's code is
     /// [`crate::Error::UnsupportedLaw`]); a host-side controller serves its own code.
-    fn session_config(
-        &self,
-        preset: Preset,
-        ablation: Ablation,
-        law: u8,
-        image: ImageSize,
-    ) -> Result<(Config, u32)> {
-        let law = Law::decode(law)?;
+    fn session_config(&self, asked: SessionProfile) -> Result<(Config, u32)> {
         let cfg = Profile {
-            preset,
-            ablation,
-            law,
+            preset: asked.preset,
+            ablation: asked.ablation,
+            law: Law::decode(asked.law)?,
         }
-        .config(image);
+        .config(asked.image);
         Ok((cfg, cfg.fingerprint()))
     }
     /// The fingerprint of the configuration in force (SPEC.md 3.2.1): a host-side law's is
@@ -136,14 +129,8 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
         (**self).init_random(seed)
     }
 
-    fn session_config(
-        &self,
-        preset: Preset,
-        ablation: Ablation,
-        law: u8,
-        image: ImageSize,
-    ) -> Result<(Config, u32)> {
-        (**self).session_config(preset, ablation, law, image)
+    fn session_config(&self, asked: SessionProfile) -> Result<(Config, u32)> {
+        (**self).session_config(asked)
     }
 
     fn fingerprint(&self) -> u32 {

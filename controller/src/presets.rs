@@ -106,6 +106,21 @@ pub struct Profile {
     pub law: Law,
 }
 
+/// A session's profile as the wire gives it (SPEC.md 3.2): a preset, an ablation, the raw
+/// law byte (a host-side law's code included) and the cameras' image size; what
+/// [`crate::Control::session_config`] answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SessionProfile {
+    /// The named configuration.
+    pub preset: Preset,
+    /// What is left out of the method.
+    pub ablation: Ablation,
+    /// The session's law byte.
+    pub law: u8,
+    /// The cameras' image size.
+    pub image: ImageSize,
+}
+
 impl Profile {
     /// The controller configuration of this profile for cameras of `image` size.
     pub fn config(self, image: ImageSize) -> Config {

@@ -16,7 +16,7 @@
 //! oracle). The stop rule is the TRN's mature tolerance and cap.
 
 use nalgebra::{SMatrix, SVector};
-use trn_controller::presets::{Ablation, ImageSize, Preset};
+use trn_controller::presets::SessionProfile;
 use trn_controller::stage::{StageOutcome, TRACE_LEN, ZERO_OUTCOME};
 use trn_controller::{
     Command, Config, Control, Error, FineMoves, Law, Observation, ObserveKind, Outcome, Task,
@@ -429,22 +429,16 @@ impl<A: ArmModel> Control for ModelBased<A> {
 
     /// Its own law code only: the profile's configuration ([`Profile::config`]),
     /// fingerprinted with that code.
-    fn session_config(
-        &self,
-        preset: Preset,
-        ablation: Ablation,
-        law: u8,
-        image: ImageSize,
-    ) -> trn_controller::Result<(Config, u32)> {
-        if law != self.model.law().code() {
+    fn session_config(&self, asked: SessionProfile) -> trn_controller::Result<(Config, u32)> {
+        if asked.law != self.model.law().code() {
             return Err(Error::UnsupportedLaw);
         }
         let profile = Profile {
-            preset,
-            ablation,
+            preset: asked.preset,
+            ablation: asked.ablation,
             law: self.model.law(),
         };
-        let cfg = profile.config(image);
+        let cfg = profile.config(asked.image);
         Ok((cfg, profile.fingerprint_of(&cfg)))
     }
 

@@ -141,23 +141,29 @@ mod tests {
     /// with that code); the core's laws and the oracle's code are not.
     #[test]
     fn it_runs_only_its_own_law() {
-        use trn_controller::presets::{Ablation, Preset};
+        use trn_controller::presets::{Ablation, Preset, SessionProfile};
         use trn_controller::Law;
         let mut r = reference(&SimConfig::default());
-        let (project, none, image) = (Preset::Project, Ablation::None, ImageSize::DEFAULT);
+        let image = ImageSize::DEFAULT;
+        let asked = |law| SessionProfile {
+            preset: Preset::Project,
+            ablation: Ablation::None,
+            law,
+            image,
+        };
         for code in [
             Law::Trn.code(),
             Law::Broyden.code(),
             ControllerChoice::Oracle.code(),
         ] {
             assert_eq!(
-                r.session_config(project, none, code, image),
+                r.session_config(asked(code)),
                 Err(Error::UnsupportedLaw),
                 "law code {code}"
             );
         }
         let (cfg, fp) = r
-            .session_config(project, none, ControllerChoice::Model.code(), image)
+            .session_config(asked(ControllerChoice::Model.code()))
             .unwrap();
         assert_eq!(cfg, Profile::DEFAULT.config(image));
         assert_eq!(fp, cfg.fingerprint_as(2));

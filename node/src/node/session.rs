@@ -3,7 +3,7 @@
 //! held checked against it), and acknowledged by its echo.
 
 use trn_controller::checkpoint::Provenance;
-use trn_controller::presets::{Ablation, ImageSize, Preset};
+use trn_controller::presets::{Ablation, ImageSize, Preset, SessionProfile};
 use trn_controller::{Control, Error as CtrlError};
 use trn_protocol::{BusMode, GuardOp, Mode, NodeId, SessionConfig};
 
@@ -58,7 +58,13 @@ impl ControllerNode {
             CtrlError::UnsupportedLaw => codes::CONFIG_UNSUPPORTED,
             _ => codes::CONFIG_INVALID,
         };
-        let (cfg, fingerprint) = match ctrl.session_config(preset, ablation, c.law, image) {
+        let asked = SessionProfile {
+            preset,
+            ablation,
+            law: c.law,
+            image,
+        };
+        let (cfg, fingerprint) = match ctrl.session_config(asked) {
             Ok(given) => given,
             Err(e) => return refuse(self, rejected(e), out),
         };
