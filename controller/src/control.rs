@@ -3,10 +3,11 @@
 //! controller outside this crate (the simulator's model-based reference), so that every
 //! controller runs in the same node, over every bus.
 
-use crate::config::Config;
+use crate::config::{Config, Law};
 use crate::controller::{Command, Controller, Observation, Task};
 use crate::error::Result;
 use crate::persist::TableStore;
+use crate::presets::{Profile, SessionProfile};
 use crate::trial::FineMoves;
 
 /// A controller as the node drives it: tasks and observations in, commands out.
@@ -25,10 +26,33 @@ pub trait Control {
     fn set_config(&mut self, cfg: Config) -> Result<()>;
     /// New initial tables (or whatever the law starts from) from `seed`.
     fn init_random(&mut self, seed: u64);
+    /// The configuration a session's profile gives this controller, and its fingerprint
+    /// (SPEC.md 3.2, 3.2.1), with the session's law byte. The default serves this
+    /// crate's laws ([`Law::decode`]: a host-side law's code is
+    /// [`crate::Error::UnsupportedLaw`]); a host-side controller serves its own code.
+    fn session_config(&self, asked: SessionProfile) -> Result<(Config, u32)> {
+        let cfg = Profile {
+            preset: asked.preset,
+            ablation: asked.ablation,
+            law: Law::decode(asked.law)?,
+        }
+        .config(asked.image);
+        Ok((cfg, cfg.fingerprint()))
+    }
+    /// The fingerprint of the configuration in force (SPEC.md 3.2.1): a host-side law's is
+    /// taken with its own law code ([`Config::fingerprint_as`]).
+    fn fingerprint(&self) -> u32 {
+        self.config().fingerprint()
+    }
     /// The TRN tables this controller holds and the store that keeps them, for a node that
     /// reads them out, writes them in, saves them and guards them; `None` for a controller
     /// without such tables (the default: nothing of it to read, write or lose).
     fn tables(&mut self) -> Option<Tables<'_>> {
+        None
+    }
+    /// The project's controller this is or holds, for a reader of its tables (a host that
+    /// checkpoints them while a run goes on); `None` for another controller (the default).
+    fn controller(&self) -> Option<&Controller> {
         None
     }
 }
@@ -68,6 +92,10 @@ impl Control for Controller {
             store: None,
         })
     }
+
+    fn controller(&self) -> Option<&Controller> {
+        Some(self)
+    }
 }
 
 /// A boxed controller is a controller (the host keeps the 230 KB of tables on the heap).
@@ -101,8 +129,20 @@ impl<C: Control + ?Sized> Control for std::boxed::Box<C> {
         (**self).init_random(seed)
     }
 
+    fn session_config(&self, asked: SessionProfile) -> Result<(Config, u32)> {
+        (**self).session_config(asked)
+    }
+
+    fn fingerprint(&self) -> u32 {
+        (**self).fingerprint()
+    }
+
     fn tables(&mut self) -> Option<Tables<'_>> {
         (**self).tables()
+    }
+
+    fn controller(&self) -> Option<&Controller> {
+        (**self).controller()
     }
 }
 
@@ -156,5 +196,8 @@ where
             ctrl: &mut self.ctrl,
             store: Some(&mut self.store),
         })
+    }
+    fn controller(&self) -> Option<&Controller> {
+        Some(&self.ctrl)
     }
 }

@@ -208,13 +208,12 @@ impl Controller {
     }
 
     /// Whether this build runs `law`: the TRN always, the Broyden servo with the cargo
-    /// feature `broyden` (a default), the host's model-based reference never (it lives in
-    /// the simulator).
+    /// feature `broyden` (a default). The host-side laws are no [`Law`]s
+    /// ([`Law::HOST_CODES`]: [`Law::decode`] answers them as unsupported).
     pub const fn runs(law: Law) -> bool {
         match law {
             Law::Trn => true,
             Law::Broyden => BroydenPair::BUILT,
-            Law::Model | Law::Oracle => false,
         }
     }
 
@@ -308,12 +307,11 @@ impl Controller {
     }
 
     /// Stage 1's law under the configured law, and the ranking memory the stages share
-    /// (the one place the controller picks a law; the host-only laws never get here:
-    /// `set_config` refuses them).
+    /// (the one place the controller picks a law).
     fn law1(&mut self) -> (&mut dyn StageLaw<8, 5>, &mut RankScratch) {
         match self.cfg.law {
             Law::Broyden => (self.broyden.law1(), &mut self.scratch),
-            Law::Trn | Law::Model | Law::Oracle => (&mut self.stage1, &mut self.scratch),
+            Law::Trn => (&mut self.stage1, &mut self.scratch),
         }
     }
 
@@ -321,7 +319,7 @@ impl Controller {
     fn law2(&mut self) -> (&mut dyn StageLaw<4, 3>, &mut RankScratch) {
         match self.cfg.law {
             Law::Broyden => (self.broyden.law2(), &mut self.scratch),
-            Law::Trn | Law::Model | Law::Oracle => (&mut self.stage2, &mut self.scratch),
+            Law::Trn => (&mut self.stage2, &mut self.scratch),
         }
     }
 
@@ -436,7 +434,7 @@ mod tests {
     fn the_broyden_law_is_refused_exactly_when_it_is_left_out() {
         let built = cfg!(feature = "broyden");
         assert_eq!(Controller::runs(Law::Broyden), built);
-        assert!(Controller::runs(Law::Trn) && !Controller::runs(Law::Model));
+        assert!(Controller::runs(Law::Trn));
         let mut c = std::boxed::Box::new(Controller::new(Config::project_default()));
         c.init_random(3);
         let broyden = Config {

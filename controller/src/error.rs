@@ -30,8 +30,10 @@ pub enum Error {
     /// A fixed budget of fine moves beyond what a trial can trace (31).
     FineMoveBudget,
     /// The configuration asks for a control law this controller does not run
-    /// (the model-based reference and the oracle are host-side, [`crate::Law::host_only`]).
+    /// (the model-based reference and the oracle are host-side, [`crate::Law::HOST_CODES`]).
     UnsupportedLaw,
+    /// A preset, ablation or law code that the wire does not define (SPEC.md 3.2).
+    UnknownCode,
     /// An observation arrived while none was awaited.
     UnexpectedObservation,
     /// The observation is of the wrong kind (lights when the centre was awaited, or the reverse).
@@ -98,6 +100,7 @@ impl fmt::Display for Error {
             Error::ZeroLengthDv => write!(f, "zero-length dv: Jacobian update skipped"),
             Error::FineMoveBudget => write!(f, "a fixed budget of fine moves is at most 31"),
             Error::UnsupportedLaw => write!(f, "this controller does not run that control law"),
+            Error::UnknownCode => write!(f, "no preset, ablation or law has that code"),
             Error::UnexpectedObservation => {
                 write!(f, "observation received while none was awaited")
             }

@@ -1,12 +1,14 @@
 //! Named configurations, shared by every build: the host (`trn`, `controller-node`) and the
 //! firmware call [`configure`], so their controllers cannot differ.
 
-use crate::config::Config;
+use crate::config::{Config, Law};
 
 crate::wire_enum! {
     /// A controller preset.
+    #[derive(Default)]
     pub enum Preset {
         /// The project's defaults ([`Config::project_default`]).
+        #[default]
         Project = 0 => "project",
         /// The chapter's printed constants, errata fixed ([`Config::paper`]).
         Paper = 1 => "paper",
@@ -17,8 +19,10 @@ crate::wire_enum! {
 
 crate::wire_enum! {
     /// An ablation of the method.
+    #[derive(Default)]
     pub enum Ablation {
         /// The full method.
+        #[default]
         None = 0 => "none",
         /// Only the closest neuron answers and learns: a plain VQ look-up table.
         NoNeighbourhood = 1 => "no-neighbourhood",
@@ -89,6 +93,63 @@ pub fn configure(preset: Preset, ablation: Ablation, image: ImageSize) -> Config
     cfg
 }
 
+/// What a session configures of a controller (SPEC.md 3.2, besides the seed and the bus):
+/// a preset, an ablation and a law. [`Profile::config`] is the one place a controller's
+/// configuration is built from them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Profile {
+    /// The named configuration.
+    pub preset: Preset,
+    /// What is left out of the method.
+    pub ablation: Ablation,
+    /// The control law.
+    pub law: Law,
+}
+
+/// A session's profile as the wire gives it (SPEC.md 3.2): a preset, an ablation, the raw
+/// law byte (a host-side law's code included) and the cameras' image size; what
+/// [`crate::Control::session_config`] answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SessionProfile {
+    /// The named configuration.
+    pub preset: Preset,
+    /// What is left out of the method.
+    pub ablation: Ablation,
+    /// The session's law byte.
+    pub law: u8,
+    /// The cameras' image size.
+    pub image: ImageSize,
+}
+
+impl Profile {
+    /// The controller configuration of this profile for cameras of `image` size.
+    pub fn config(self, image: ImageSize) -> Config {
+        Config {
+            law: self.law,
+            ..configure(self.preset, self.ablation, image)
+        }
+    }
+
+    /// The profile of a session's three codes (SPEC.md 3.2):
+    /// [`crate::Error::UnsupportedLaw`] for a host-side law's code ([`Law::decode`]),
+    /// [`crate::Error::UnknownCode`] for a code the wire does not define.
+    pub const fn from_codes(preset: u8, ablation: u8, law: u8) -> crate::Result<Profile> {
+        let (Some(preset), Some(ablation)) =
+            (Preset::from_code(preset), Ablation::from_code(ablation))
+        else {
+            return Err(crate::Error::UnknownCode);
+        };
+        match Law::decode(law) {
+            Ok(law) => Ok(Profile {
+                preset,
+                ablation,
+                law,
+            }),
+            Err(e) => Err(e),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,9 +172,58 @@ mod tests {
         assert_eq!(Ablation::from_code(Ablation::COUNT), None);
         assert_eq!(crate::Law::from_code(crate::Law::COUNT), None);
         assert_eq!(
-            (Preset::COUNT, Ablation::COUNT, crate::Law::COUNT),
-            (3, 5, 4)
+            (Preset::COUNT, Ablation::COUNT, Law::COUNT, Law::WIRE_CODES),
+            (3, 5, 2, 4)
         );
+    }
+
+    /// The host-side laws' codes are valid on the wire and answered as unsupported, not as
+    /// unknown; codes past them are unknown; the core's laws decode.
+    #[test]
+    fn host_law_codes_are_unsupported_and_later_codes_unknown() {
+        use crate::Error;
+        assert_eq!(Law::decode(0), Ok(Law::Trn));
+        assert_eq!(Law::decode(1), Ok(Law::Broyden));
+        for (code, name) in Law::HOST_CODES {
+            assert_eq!(Law::decode(code), Err(Error::UnsupportedLaw), "{name}");
+            assert_eq!(Law::host_code(name), Some(code));
+            assert_eq!(Law::from_name(name), None);
+            assert_eq!(Profile::from_codes(0, 0, code), Err(Error::UnsupportedLaw));
+        }
+        assert_eq!(Law::host_code("trn"), None);
+        assert_eq!(Law::decode(Law::WIRE_CODES), Err(Error::UnknownCode));
+        assert_eq!(Profile::from_codes(0, 0, 4), Err(Error::UnknownCode));
+        assert_eq!(Profile::from_codes(3, 0, 0), Err(Error::UnknownCode));
+        assert_eq!(Profile::from_codes(0, 5, 0), Err(Error::UnknownCode));
+        let p = Profile::from_codes(1, 3, 1).unwrap();
+        assert_eq!(
+            (p.preset, p.ablation, p.law),
+            (Preset::Paper, Ablation::NoFine, Law::Broyden)
+        );
+        assert_eq!(p.config(ImageSize::DEFAULT).law, Law::Broyden);
+        assert_eq!(
+            p.config(ImageSize::DEFAULT).stage1.max_fine_moves,
+            configure(Preset::Paper, Ablation::NoFine, ImageSize::DEFAULT)
+                .stage1
+                .max_fine_moves
+        );
+    }
+
+    /// The fingerprint with a law byte is the configuration's own encoding with that byte:
+    /// for the core's laws it is [`Config::fingerprint`] of the postcard encoding, and a
+    /// host-side law's code gives a fingerprint of its own.
+    #[test]
+    fn a_fingerprint_with_a_law_code_is_the_encoding_with_that_byte() {
+        let cfg = Profile::default().config(ImageSize::DEFAULT);
+        for &law in Law::ALL {
+            let c = Config { law, ..cfg };
+            let mut buf = [0u8; 512];
+            let bytes = postcard::to_slice(&c, &mut buf).unwrap();
+            assert_eq!(c.fingerprint(), crate::crc::crc32(bytes));
+            assert_eq!(cfg.fingerprint_as(law.code()), c.fingerprint());
+        }
+        let host: [u32; 2] = Law::HOST_CODES.map(|(code, _)| cfg.fingerprint_as(code));
+        assert!(host[0] != host[1] && !host.contains(&cfg.fingerprint()));
     }
 
     #[test]

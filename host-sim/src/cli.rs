@@ -3,8 +3,8 @@
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
+use trn_bench::spec::ControllerChoice;
 use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 
 /// `trn`: train, evaluate and compare the TRN controller of a hysteretic soft arm (and its
 /// baselines) on the simulated SoftArm, or check any controller on a CAN bus against the
@@ -276,9 +276,10 @@ pub struct Common {
     /// The control law: `trn` (the chapter's method), `broyden` (uncalibrated visual
     /// servoing with a Broyden Jacobian, no training) or `model` (the simulator's nominal
     /// inverse kinematics: a calibrated model without hysteresis compensation; in process
-    /// only).
-    #[arg(long = "controller", value_enum, default_value_t = Law::Trn)]
-    pub law: Law,
+    /// only) or `oracle` (the physical limit: it solves on an exact copy of the simulated
+    /// plant; in process only).
+    #[arg(long = "controller", value_enum, default_value_t = ControllerChoice::Trn)]
+    pub law: ControllerChoice,
     /// Held-out targets per network in the evaluation.
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub eval_targets: u64,
@@ -451,7 +452,7 @@ mod tests {
         ] {
             assert!(help.contains(form), "{form} missing from trn train --help");
         }
-        for law in Law::ALL {
+        for law in ControllerChoice::ALL {
             assert!(help.contains(law.name()), "{} missing", law.name());
         }
     }
@@ -514,7 +515,7 @@ mod tests {
         for a in Ablation::ALL {
             assert_eq!(a.to_possible_value().unwrap().get_name(), a.name());
         }
-        for l in Law::ALL {
+        for l in ControllerChoice::ALL {
             assert_eq!(l.to_possible_value().unwrap().get_name(), l.name());
         }
     }

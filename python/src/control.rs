@@ -5,9 +5,9 @@
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use trn_controller::presets::{configure, Ablation, ImageSize, Preset};
+use trn_controller::presets::{Ablation, ImageSize, Preset, Profile};
 use trn_controller::{
-    Command, Config, Controller, FineMoves, Law, Observation, ObserveKind, StageOutcome, Task,
+    Command, Controller, FineMoves, Law, Observation, ObserveKind, StageOutcome, Task,
 };
 
 /// A controller (see the module). Its 230 KB of tables live on the heap.
@@ -83,7 +83,7 @@ impl Ctrl {
         // binding can serve it
         let law = match Law::from_name(law) {
             Some(l @ (Law::Trn | Law::Broyden)) => l,
-            Some(l) if l.host_only() => {
+            None if Law::host_code(law).is_some() => {
                 return Err(PyValueError::new_err(format!(
                     "law {law:?} runs in the simulator only (trn train --controller {law}); \
                      this binding serves \"trn\" and \"broyden\""
@@ -101,10 +101,12 @@ impl Ctrl {
             width: image.0,
             height: image.1,
         };
-        let cfg = Config {
+        let cfg = Profile {
+            preset,
+            ablation,
             law,
-            ..configure(preset, ablation, image)
-        };
+        }
+        .config(image);
         let mut ctrl = Box::new(Controller::new(cfg));
         ctrl.init_random(seed);
         Ok(Ctrl { ctrl, expect: None })

@@ -232,7 +232,9 @@ pub struct Config {
 }
 
 crate::wire_enum! {
-    /// The control law of both stages.
+    /// The control law of both stages: the laws this crate runs. The session's law byte
+    /// (SPEC.md 3.2) has two more codes, [`Law::HOST_CODES`], for host-side controllers
+    /// that carry the simulator; [`Law::decode`] answers them as unsupported.
     #[derive(Default)]
     pub enum Law {
         /// The topology representing network (the chapter's method).
@@ -241,20 +243,35 @@ crate::wire_enum! {
         /// Uncalibrated visual servoing with a Broyden Jacobian, no training
         /// ([`crate::broyden`]): the classical alternative, for comparison.
         Broyden = 1 => "broyden",
-        /// A model-based reference outside this crate (the simulator's nominal inverse
-        /// kinematics, host only): [`crate::Controller`] refuses it.
-        Model = 2 => "model",
-        /// The physical limit: a controller that solves on an exact copy of the simulated
-        /// plant (host only): [`crate::Controller`] refuses it.
-        Oracle = 3 => "oracle",
     }
 }
 
 impl Law {
-    /// True for the laws that need the simulator in the same process (the model-based
-    /// reference and the oracle): no controller of this crate runs them.
-    pub const fn host_only(self) -> bool {
-        matches!(self, Law::Model | Law::Oracle)
+    /// The law codes of the wire (SPEC.md 3.2): this crate's laws, then [`Law::HOST_CODES`].
+    pub const WIRE_CODES: u8 = Law::COUNT + Law::HOST_CODES.len() as u8;
+
+    /// The wire codes and names of the laws that run on the host only, beside the simulator
+    /// (the model-based reference, the oracle that solves on a copy of the plant): valid on
+    /// the wire, run by no controller of this crate.
+    pub const HOST_CODES: [(u8, &'static str); 2] = [(2, "model"), (3, "oracle")];
+
+    /// The law of a wire code: [`Error::UnsupportedLaw`](crate::Error::UnsupportedLaw) for a
+    /// host-side law's code ([`Law::HOST_CODES`]), [`Error::UnknownCode`](crate::Error::UnknownCode)
+    /// beyond [`Law::WIRE_CODES`].
+    pub const fn decode(code: u8) -> crate::Result<Law> {
+        match Law::from_code(code) {
+            Some(law) => Ok(law),
+            None if code < Law::WIRE_CODES => Err(crate::Error::UnsupportedLaw),
+            None => Err(crate::Error::UnknownCode),
+        }
+    }
+
+    /// The host-side law named `name` ([`Law::HOST_CODES`]), if it is one: its wire code.
+    pub fn host_code(name: &str) -> Option<u8> {
+        Law::HOST_CODES
+            .iter()
+            .find(|(_, n)| *n == name)
+            .map(|&(code, _)| code)
     }
 }
 
@@ -540,8 +557,23 @@ impl Config {
     /// a checkpoint records it, and the controller node reports it, so that tables are never
     /// used under another configuration than they were learned with, unknowingly.
     pub fn fingerprint(&self) -> u32 {
+        self.fingerprint_as(self.law.code())
+    }
+
+    /// [`Config::fingerprint`] with the law byte `law_code` in place of [`Config::law`]: the
+    /// fingerprint of a host-side law's configuration ([`Law::HOST_CODES`], SPEC.md 3.2.1).
+    /// The encoding is the configuration's own: postcard writes a unit variant as the varint
+    /// of its index, one byte below 128, the same byte as a `u8` of that value.
+    pub fn fingerprint_as(&self, law_code: u8) -> u32 {
+        let fields = (
+            &self.stage1,
+            &self.stage2,
+            self.supervised_steps,
+            law_code,
+            &self.broyden,
+        );
         let mut buf = [0u8; 512];
-        match postcard::to_slice(self, &mut buf) {
+        match postcard::to_slice(&fields, &mut buf) {
             Ok(bytes) => crate::crc::crc32(bytes),
             // cannot happen: the encoding is about 200 bytes
             Err(_) => 0,

@@ -45,6 +45,7 @@ pub mod run;
 pub mod runner;
 pub mod schedule;
 pub mod scoring;
+pub mod seeds;
 mod session;
 pub mod sim_state;
 pub mod spec;
@@ -64,6 +65,7 @@ pub use error::{io, LabError, Result};
 pub use observe::{Observer, Unobserved};
 pub use provenance::Provenance;
 pub use report::Report;
-pub use spec::{BusChoice, Command, Outputs, Profile, RunSpec};
+pub use seeds::Seeds;
+pub use spec::{BusChoice, Command, ControllerChoice, Outputs, Profile, RunConfig, RunSpec};
 /// Where targets come from: the plant's ([`trn_plant::targets`]), here under the path it had.
 pub use trn_plant::targets;

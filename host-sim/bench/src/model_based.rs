@@ -16,10 +16,13 @@
 //! oracle). The stop rule is the TRN's mature tolerance and cap.
 
 use nalgebra::{SMatrix, SVector};
+use trn_controller::presets::SessionProfile;
 use trn_controller::stage::{StageOutcome, TRACE_LEN, ZERO_OUTCOME};
 use trn_controller::{
     Command, Config, Control, Error, FineMoves, Law, Observation, ObserveKind, Outcome, Task,
 };
+
+use crate::spec::{ControllerChoice, Profile};
 
 /// Levenberg-Marquardt iterations of a solve, at most.
 const IK_ITERATIONS: usize = 60;
@@ -60,8 +63,8 @@ pub trait ArmModel {
     /// True when a fine move is a new solve on the model (it knows the arm's state after the
     /// move); false: one Gauss-Newton step with the observed error.
     fn resolves(&self) -> bool;
-    /// The law this model runs as.
-    fn law(&self) -> Law;
+    /// The host-side controller this model runs as (its law code on the wire).
+    fn law(&self) -> ControllerChoice;
     /// The finite-difference step of the model's Jacobian (normalised pressure): at least a
     /// step of the servo drives' 12-bit command where the model goes through them.
     fn step_size(&self) -> f64;
@@ -410,15 +413,37 @@ impl<A: ArmModel> Control for ModelBased<A> {
         &self.cfg
     }
 
+    /// A configuration whose law is the TRN's (of which it uses the stop rule: its own
+    /// law is the host-side code, [`ArmModel::law`], that [`Control::session_config`]
+    /// checks).
     fn set_config(&mut self, cfg: Config) -> trn_controller::Result<()> {
         if self.busy() {
             return Err(Error::Busy);
         }
-        if cfg.law != self.model.law() {
+        if cfg.law != Law::Trn {
             return Err(Error::UnsupportedLaw);
         }
         self.cfg = cfg;
         Ok(())
+    }
+
+    /// Its own law code only: the profile's configuration ([`Profile::config`]),
+    /// fingerprinted with that code.
+    fn session_config(&self, asked: SessionProfile) -> trn_controller::Result<(Config, u32)> {
+        if asked.law != self.model.law().code() {
+            return Err(Error::UnsupportedLaw);
+        }
+        let profile = Profile {
+            preset: asked.preset,
+            ablation: asked.ablation,
+            law: self.model.law(),
+        };
+        let cfg = profile.config(asked.image);
+        Ok((cfg, profile.fingerprint_of(&cfg)))
+    }
+
+    fn fingerprint(&self) -> u32 {
+        self.cfg.fingerprint_as(self.model.law().code())
     }
 
     /// Nothing to draw: the model is the calibration.

@@ -7,10 +7,11 @@
 //! the reading it stops on. Every figure of the comparison is also given as a ratio to its.
 
 use nalgebra::SVector;
-use trn_controller::{Config, Law};
+use trn_controller::Config;
 
 use crate::model_based::{ArmModel, ModelBased};
 use crate::rig::SharedPlant;
+use crate::spec::ControllerChoice;
 
 /// The live plant, read (never changed) at each decision.
 pub struct LiveModel {
@@ -49,8 +50,8 @@ impl ArmModel for LiveModel {
         true
     }
 
-    fn law(&self) -> Law {
-        Law::Oracle
+    fn law(&self) -> ControllerChoice {
+        ControllerChoice::Oracle
     }
 
     /// Four steps of the drives' 12-bit command (one is 2 / 4095 of the range).

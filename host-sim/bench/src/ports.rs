@@ -4,12 +4,9 @@
 
 use std::io::Write;
 
-use trn_controller::Controller;
+use trn_controller::{Control, Controller};
 use trn_protocol::bus::RecordingPort;
 use trn_transport::inproc::SimulatedBus;
-
-use crate::oracle::Oracle;
-use crate::reference::NominalIk;
 
 /// A session's port, and the project's controller if this port holds it.
 pub trait ControllerPort {
@@ -19,21 +16,13 @@ pub trait ControllerPort {
     }
 }
 
-impl ControllerPort for SimulatedBus<Controller> {
+/// The in-process bus holds its controller: the project's, a board (the controller and its
+/// store), or a host-side controller without tables ([`Control::controller`]).
+impl<C: Control + ?Sized> ControllerPort for SimulatedBus<C> {
     fn controller(&self) -> Option<&Controller> {
-        Some(SimulatedBus::controller(self))
+        SimulatedBus::controller(self).controller()
     }
 }
-
-impl ControllerPort for SimulatedBus<trn_transport::board::Board> {
-    fn controller(&self) -> Option<&Controller> {
-        Some(&SimulatedBus::controller(self).ctrl)
-    }
-}
-
-impl ControllerPort for SimulatedBus<NominalIk> {}
-
-impl ControllerPort for SimulatedBus<Oracle> {}
 
 impl<P: ControllerPort, W: Write, C: FnMut() -> u64> ControllerPort for RecordingPort<P, W, C> {
     fn controller(&self) -> Option<&Controller> {

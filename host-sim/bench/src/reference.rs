@@ -9,10 +9,11 @@
 //! it commanded last (it has no joint sensors; the runner moves the arm between trials).
 
 use nalgebra::SVector;
-use trn_controller::{Config, Law};
+use trn_controller::Config;
 use trn_plant::{Plant, SimConfig};
 
 use crate::model_based::{ArmModel, ModelBased};
+use crate::spec::ControllerChoice;
 
 /// The nominal model: the arm at rest at the commanded pressures, loops of zero width.
 pub struct NominalModel {
@@ -40,8 +41,8 @@ impl ArmModel for NominalModel {
         false
     }
 
-    fn law(&self) -> Law {
-        Law::Model
+    fn law(&self) -> ControllerChoice {
+        ControllerChoice::Model
     }
 
     /// The static map has no command steps: a small difference.
@@ -75,15 +76,16 @@ impl NominalIk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+    use crate::spec::Profile;
+    use trn_controller::presets::ImageSize;
     use trn_controller::{Command, Control, Error, FineMoves, Observation, Task};
 
     fn reference(sim: &SimConfig) -> NominalIk {
-        let cfg = Config {
-            law: Law::Model,
-            ..presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT)
+        let profile = Profile {
+            law: ControllerChoice::Model,
+            ..Profile::DEFAULT
         };
-        NominalIk::new(sim, cfg).unwrap()
+        NominalIk::new(sim, profile.config(ImageSize::DEFAULT)).unwrap()
     }
 
     /// On an arm without hysteresis (the model is then exact up to the settling left after
@@ -135,13 +137,43 @@ mod tests {
         assert!(coarse[1] > 3.0 * coarse[0], "{coarse:?}");
     }
 
+    /// A session of its own law code is served (the profile's configuration, fingerprinted
+    /// with that code); the core's laws and the oracle's code are not.
     #[test]
     fn it_runs_only_its_own_law() {
+        use trn_controller::presets::{Ablation, Preset, SessionProfile};
+        use trn_controller::Law;
         let mut r = reference(&SimConfig::default());
-        assert_eq!(
-            r.set_config(Config::project_default()),
-            Err(Error::UnsupportedLaw)
-        );
+        let image = ImageSize::DEFAULT;
+        let asked = |law| SessionProfile {
+            preset: Preset::Project,
+            ablation: Ablation::None,
+            law,
+            image,
+        };
+        for code in [
+            Law::Trn.code(),
+            Law::Broyden.code(),
+            ControllerChoice::Oracle.code(),
+        ] {
+            assert_eq!(
+                r.session_config(asked(code)),
+                Err(Error::UnsupportedLaw),
+                "law code {code}"
+            );
+        }
+        let (cfg, fp) = r
+            .session_config(asked(ControllerChoice::Model.code()))
+            .unwrap();
+        assert_eq!(cfg, Profile::DEFAULT.config(image));
+        assert_eq!(fp, cfg.fingerprint_as(2));
+        assert_ne!(fp, cfg.fingerprint());
+        assert_eq!(r.fingerprint(), fp);
+        let broyden = Config {
+            law: Law::Broyden,
+            ..Config::project_default()
+        };
+        assert_eq!(r.set_config(broyden), Err(Error::UnsupportedLaw));
         assert_eq!(
             r.observe(Observation::Lights([0.0; 8])),
             Err(Error::UnexpectedObservation)

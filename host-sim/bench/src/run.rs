@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use trn_controller::checkpoint::Provenance;
-use trn_controller::{Control, Law};
+use trn_controller::Control;
 use trn_node::ControllerNode;
 use trn_plant::Plant;
 use trn_protocol::bus::BusStats;
@@ -19,13 +19,12 @@ use crate::error::{LabError, Result};
 use crate::observe::Observer;
 use crate::oracle::Oracle;
 use crate::output::OutputPlan;
-use crate::ports::ControllerPort;
 use crate::reference::NominalIk;
 use crate::report::Report;
 use crate::rig::SharedPlant;
 use crate::session::{Setup, Start};
 use crate::sim_state;
-use crate::spec::{Command, RunSpec};
+use crate::spec::{Command, ControllerChoice, RunSpec};
 use crate::suite::{no_suite, NoSuite, Suite};
 use crate::tables::opening::{Opening, Want};
 use trn_transport::board;
@@ -50,20 +49,18 @@ pub fn run_with<S: Suite>(
     spec.check()?;
     let outputs = OutputPlan::check(spec)?;
     let started = Instant::now();
-    let plant = Plant::new(&spec.plant, spec.seed)?;
+    let seeds = crate::seeds::Seeds::of(spec.seed);
+    let plant = Plant::new(&spec.plant, seeds.plant)?;
     let mut plan = spec.plan;
     let provenance = Provenance::of(spec.profile.preset, spec.profile.ablation);
     // a checkpoint's schedule goes on from the trials it learned; `--continue` also restores
     // the simulation of the run that wrote it
     let mut resume = None;
     let mut image = None;
+    let configs = spec.controller();
     if let Some(p) = &spec.checkpoint_in {
-        let (bytes, header, file) = checkpoint_file::image_for(
-            p,
-            &spec.profile_config(),
-            provenance,
-            spec.allow_config_change,
-        )?;
+        let (bytes, header, file) =
+            checkpoint_file::image_for(p, &configs.profile, provenance, spec.allow_config_change)?;
         plan.first_trial = header.t1 as usize;
         let beside = sim_state::path_beside(p);
         if plan.resume {
@@ -94,21 +91,20 @@ pub fn run_with<S: Suite>(
         }
         image = Some(bytes);
     }
-    let cfg = spec.controller_config();
-    // the run parameters go to the controller over the bus; a tuning configuration that no
-    // profile describes is given to the in-process controller directly instead
-    let described = spec.profile_config().fingerprint() == cfg.fingerprint();
+    let cfg = configs.run;
     let want = match (image, spec.command) {
         (Some(bytes), _) => Want::Image(bytes),
         (None, Command::Eval | Command::Grasp) => Want::Held { or_new: false },
         (None, _) if spec.keep_tables => Want::Held { or_new: true },
         (None, _) => Want::New,
     };
-    let opening = described.then(|| Opening {
+    // the run parameters go to the controller over the bus; a tuning configuration that no
+    // profile describes is given to the in-process controller directly instead
+    let opening = configs.described.then(|| Opening {
         want,
         reset: spec.reset_tables,
         session: spec.session_config(false),
-        fingerprint: cfg.fingerprint(),
+        fingerprint: configs.fingerprint,
         image: spec.image(),
         needs_tables: [
             (spec.tables.is_some(), "--tables"),
@@ -135,12 +131,12 @@ pub fn run_with<S: Suite>(
     let mut rows = crate::trial_csv::TrialRows::new(observer, spec.outputs.csv.is_some());
     let mut setup = Setup::new(start, &mut rows, suite);
     match profile.controller {
-        ControllerSite::Inline if cfg.law == Law::Model => {
+        ControllerSite::Inline if spec.profile.law == ControllerChoice::Model => {
             // the model-based reference: the simulator's own model, in process only
             let reference = Box::new(NominalIk::new(&spec.plant, cfg)?);
             inline(&mut setup, reference, None, plant, &mut report)?;
         }
-        ControllerSite::Inline if cfg.law == Law::Oracle => {
+        ControllerSite::Inline if spec.profile.law == ControllerChoice::Oracle => {
             // the physical limit: it reads the plant the rig moves
             let shared: SharedPlant = std::rc::Rc::new(std::cell::RefCell::new(plant));
             let oracle = Box::new(Oracle::new(shared.clone(), cfg));
@@ -157,12 +153,12 @@ pub fn run_with<S: Suite>(
                 ));
             }
             if setup.opening().is_none() {
-                b.ctrl.init_random(spec.seed);
+                b.ctrl.init_random(seeds.tables);
             }
             let node = board::node(
                 &mut b,
                 restored.ok(),
-                board::guard_seed(spec.seed),
+                board::guard_seed(seeds.guard),
                 node_config(spec),
             );
             inline(&mut setup, Box::new(b), Some(node), plant, &mut report)?;
@@ -230,10 +226,7 @@ fn inline<C: Control + ?Sized, S: Suite>(
     node: Option<ControllerNode>,
     plant: Plant,
     report: &mut Report,
-) -> Result<()>
-where
-    SimulatedBus<C>: ControllerPort,
-{
+) -> Result<()> {
     let shared = std::rc::Rc::new(std::cell::RefCell::new(plant));
     inline_shared(setup, ctrl, node, shared, report)
 }
@@ -245,10 +238,7 @@ fn inline_shared<C: Control + ?Sized, S: Suite>(
     node: Option<ControllerNode>,
     plant: SharedPlant,
     report: &mut Report,
-) -> Result<()>
-where
-    SimulatedBus<C>: ControllerPort,
-{
+) -> Result<()> {
     let spec = setup.spec();
     let mode = if spec.bus.fd {
         BusMode::Fd
@@ -256,7 +246,8 @@ where
         BusMode::Classic
     };
     let node = node.unwrap_or_else(|| ControllerNode::new(node_config(spec)));
-    let bus = SimulatedBus::with_node(mode, spec.seed, spec.bus.faults, ctrl, node);
+    let seeds = crate::seeds::Seeds::of(spec.seed);
+    let bus = SimulatedBus::with_node(mode, seeds.faults, spec.bus.faults, ctrl, node);
     let clock = bus.clock();
     let bus = setup.drive(bus, std::rc::Rc::new(clock), plant, report)?;
     report.bus_stats.injected = Some(injected(&bus.bus_stats()));

@@ -137,13 +137,14 @@ impl<P> Runner<P>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    /// A runner on `rig`; `seed` drives the targets and start poses.
+    /// A runner on `rig`; the run's `seed` drives the targets and start poses (its
+    /// [`crate::seeds::Seeds::runner`]).
     pub fn new(mut rig: Rig<P>, seed: u64, timing: Timing) -> Self {
         rig.heard_now();
         use rand_core::SeedableRng;
         Runner {
             rig,
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5EED_7A26_E75E_55ED),
+            rng: Xoshiro256PlusPlus::seed_from_u64(crate::seeds::Seeds::of(seed).runner),
             trial: 0,
             timing,
             stats: RunnerStats::default(),

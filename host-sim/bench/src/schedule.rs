@@ -124,7 +124,7 @@ where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     cx.observer.start(plan.total() as u64);
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(cx.seed ^ 0x4E1D_0075_EED5);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(crate::seeds::Seeds::of(cx.seed).schedule);
     let sets = {
         let plant = runner.rig().plant();
         HeldOutSets {

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
-use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+use trn_controller::presets::{Ablation, ImageSize, Preset};
 use trn_controller::{Config, Law};
 use trn_plant::SimConfig;
 use trn_protocol::bus::FaultConfig;
@@ -70,6 +70,52 @@ impl Plan {
     }
 }
 
+trn_controller::wire_enum! {
+    /// The controller a run drives: one of the core's laws ([`Law`]), or a host-side one that
+    /// carries the simulator and runs in process only. Its code is the session's law byte
+    /// (SPEC.md 3.2; the host-side codes are [`Law::HOST_CODES`]).
+    #[derive(Default)]
+    pub enum ControllerChoice {
+        /// The topology representing network ([`Law::Trn`]).
+        #[default]
+        Trn = 0 => "trn",
+        /// The Broyden servo baseline ([`Law::Broyden`]).
+        Broyden = 1 => "broyden",
+        /// The model-based reference: the simulator's nominal inverse kinematics
+        /// ([`crate::reference::NominalIk`]).
+        Model = 2 => "model",
+        /// The physical limit: it solves on an exact copy of the simulated plant
+        /// ([`crate::oracle::Oracle`]).
+        Oracle = 3 => "oracle",
+    }
+}
+
+impl ControllerChoice {
+    /// The core's law this is, if it is one.
+    pub const fn core(self) -> Option<Law> {
+        match self {
+            ControllerChoice::Trn => Some(Law::Trn),
+            ControllerChoice::Broyden => Some(Law::Broyden),
+            ControllerChoice::Model | ControllerChoice::Oracle => None,
+        }
+    }
+
+    /// True for a host-side controller (the model-based reference, the oracle): in process
+    /// only.
+    pub const fn host_only(self) -> bool {
+        self.core().is_none()
+    }
+}
+
+impl From<Law> for ControllerChoice {
+    fn from(law: Law) -> ControllerChoice {
+        match law {
+            Law::Trn => ControllerChoice::Trn,
+            Law::Broyden => ControllerChoice::Broyden,
+        }
+    }
+}
+
 /// What the controller is told to be: the fields of the session's `SessionConfig` besides
 /// the seed and the bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -78,8 +124,8 @@ pub struct Profile {
     pub preset: Preset,
     /// What is left out of the method.
     pub ablation: Ablation,
-    /// The control law.
-    pub law: Law,
+    /// The control law: the core's, or a host-side controller.
+    pub law: ControllerChoice,
 }
 
 impl Profile {
@@ -87,18 +133,54 @@ impl Profile {
     pub const DEFAULT: Profile = Profile {
         preset: Preset::Project,
         ablation: Ablation::None,
-        law: Law::Trn,
+        law: ControllerChoice::Trn,
     };
+
+    /// The controller configuration of this profile for cameras of `image` size (the one
+    /// place the host builds it): the core's [`trn_controller::presets::Profile::config`];
+    /// a host-side controller's is the TRN's (it uses the stop rule).
+    pub fn config(&self, image: ImageSize) -> Config {
+        trn_controller::presets::Profile {
+            preset: self.preset,
+            ablation: self.ablation,
+            law: self.law.core().unwrap_or(Law::Trn),
+        }
+        .config(image)
+    }
+
+    /// The fingerprint a controller of this profile announces for `cfg` (SPEC.md 3.2.1):
+    /// a host-side controller's is taken with its law code.
+    pub fn fingerprint_of(&self, cfg: &Config) -> u32 {
+        match self.law.core() {
+            Some(_) => cfg.fingerprint(),
+            None => cfg.fingerprint_as(self.law.code()),
+        }
+    }
 
     /// A label for tables and reports: the law when it is not the TRN, else the preset and
     /// the ablation.
     pub fn label(&self) -> String {
         match (self.law, self.ablation) {
-            (Law::Trn, Ablation::None) => self.preset.name().to_string(),
-            (Law::Trn, a) => format!("{}+{}", self.preset.name(), a.name()),
+            (ControllerChoice::Trn, Ablation::None) => self.preset.name().to_string(),
+            (ControllerChoice::Trn, a) => format!("{}+{}", self.preset.name(), a.name()),
             (law, _) => law.name().to_string(),
         }
     }
+}
+
+/// A run's controller configuration ([`RunSpec::controller`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunConfig {
+    /// The profile's configuration (a checkpoint's header is checked against it).
+    pub profile: Config,
+    /// The run's: the override, else the profile's.
+    pub run: Config,
+    /// The fingerprint the run's controller announces for it (SPEC.md 3.2.1).
+    pub fingerprint: u32,
+    /// The profile describes the run's configuration (no override, or one that is the
+    /// profile's): the run parameters then go to the controller over the bus; a tuning
+    /// configuration is given to the in-process controller directly.
+    pub described: bool,
 }
 
 /// The bus of a run.
@@ -272,10 +354,7 @@ impl RunSpec {
 
     /// The controller configuration the profile describes for this plant.
     pub fn profile_config(&self) -> Config {
-        Config {
-            law: self.profile.law,
-            ..presets::configure(self.profile.preset, self.profile.ablation, self.image())
-        }
+        self.profile.config(self.image())
     }
 
     /// The controller configuration of the run: the override, else the profile's.
@@ -284,18 +363,33 @@ impl RunSpec {
             .unwrap_or_else(|| self.profile_config())
     }
 
+    /// The run's controller configuration, built once: the profile's, the run's (the
+    /// override, else the profile's), the fingerprint it is announced under, and whether the
+    /// profile describes it.
+    pub fn controller(&self) -> RunConfig {
+        let profile = self.profile_config();
+        let run = self.controller_override.unwrap_or(profile);
+        let fingerprint = self.profile.fingerprint_of(&run);
+        RunConfig {
+            profile,
+            run,
+            fingerprint,
+            described: fingerprint == self.profile.fingerprint_of(&profile),
+        }
+    }
+
     /// The session's run parameters for the controller (SPEC.md 3.2).
     pub fn session_config(&self, keep_tables: bool) -> SessionConfig {
         let image = self.image();
         SessionConfig {
-            seed: self.seed,
+            seed: crate::seeds::Seeds::of(self.seed).tables,
             preset: self.profile.preset as u8,
             ablation: self.profile.ablation as u8,
             image_width: image.width,
             image_height: image.height,
             fd: self.bus.fd,
             keep_tables,
-            law: self.profile.law as u8,
+            law: self.profile.law.code(),
         }
     }
 
@@ -386,8 +480,49 @@ mod tests {
     #[test]
     fn host_and_firmware_build_the_same_default_controller() {
         let spec = RunSpec::new(Command::Train, 1);
-        let firmware = presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
+        let firmware =
+            trn_controller::presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
         assert_eq!(spec.controller_config(), firmware);
+    }
+
+    /// The host's controller choice extends the core's laws with the host-side codes of
+    /// the wire, under the same names; the host-side controllers' configuration is the
+    /// TRN's, fingerprinted with their code.
+    #[test]
+    fn the_controller_choice_is_the_cores_laws_then_the_host_codes() {
+        for &law in Law::ALL {
+            let c = ControllerChoice::from(law);
+            assert_eq!(
+                (c.code(), c.name(), c.core()),
+                (law.code(), law.name(), Some(law))
+            );
+        }
+        let host: Vec<_> = ControllerChoice::ALL
+            .iter()
+            .filter(|c| c.host_only())
+            .map(|c| (c.code(), c.name()))
+            .collect();
+        assert_eq!(host, Law::HOST_CODES);
+        let image = ImageSize::DEFAULT;
+        for (law, code) in [(ControllerChoice::Model, 2), (ControllerChoice::Oracle, 3)] {
+            let p = Profile {
+                law,
+                ..Profile::DEFAULT
+            };
+            assert_eq!(p.config(image), Profile::DEFAULT.config(image));
+            assert_eq!(
+                p.fingerprint_of(&p.config(image)),
+                p.config(image).fingerprint_as(code)
+            );
+            let mut s = RunSpec::new(Command::Train, 1);
+            s.profile = p;
+            assert!(s.controller().described);
+            assert_eq!(
+                s.controller().fingerprint,
+                p.config(image).fingerprint_as(code)
+            );
+            assert_eq!(s.session_config(false).law, code);
+        }
     }
 
     #[test]
@@ -448,7 +583,7 @@ mod tests {
         s.bus.faults = Some(FaultConfig::default());
         assert!(s.check().unwrap_err().to_string().contains("--faults"));
         let mut s = ok.clone();
-        s.profile.law = Law::Model;
+        s.profile.law = ControllerChoice::Model;
         s.checkpoint_in = Some("x".into());
         assert!(s.check().unwrap_err().to_string().contains("model"));
         let mut s = ok.clone();

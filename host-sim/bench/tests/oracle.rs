@@ -4,13 +4,13 @@
 //! the plant's state (its hysteresis history, drift, wear) or its solve stops short.
 
 use trn_bench::schedule::Plan;
+use trn_bench::spec::ControllerChoice;
 use trn_bench::{run, Command, RunSpec};
-use trn_controller::Law;
 
 #[test]
 fn the_oracle_lands_its_coarse_move_at_the_noise() {
     let mut spec = RunSpec::new(Command::Train, 7);
-    spec.profile.law = Law::Oracle;
+    spec.profile.law = ControllerChoice::Oracle;
     spec.plan = Plan {
         snapshot_every: 0,
         ..Plan::new(0, 12, 4)
@@ -50,7 +50,7 @@ fn the_oracle_lands_its_coarse_move_at_the_noise() {
 #[test]
 fn the_oracle_runs_in_process_only() {
     let mut spec = RunSpec::new(Command::Train, 7);
-    spec.profile.law = Law::Oracle;
+    spec.profile.law = ControllerChoice::Oracle;
     spec.bus.spec = trn_transport::BusSpec::SlcanQemu;
     let e = spec.check().unwrap_err().to_string();
     assert!(e.contains("oracle") && e.contains("in process only"), "{e}");

@@ -103,7 +103,7 @@ impl trn_bench::suite::Suite for Conformance {
         runner.rig_mut().start_journal();
         let mut s = Suite {
             runner,
-            rng: Xoshiro256PlusPlus::seed_from_u64(session.seed ^ 0xC0F0_12AA),
+            rng: Xoshiro256PlusPlus::seed_from_u64(trn_bench::Seeds::of(session.seed).suite),
             patience,
             checks: Vec::new(),
             trial: 1000,

@@ -2,15 +2,15 @@
 //! in-process bus, on CAN 2.0 and CAN FD, both presets. (Over SocketCAN it runs in the
 //! vcan VM, `scripts/vcan/tests.sh`; against the firmware in QEMU, `scripts/cross/pil.sh`.)
 
+use trn_bench::spec::ControllerChoice;
 use trn_bench::{Command, Profile, RunSpec};
 use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 
 fn suite(seed: u64, preset: Preset, fd: bool) {
-    suite_with(seed, preset, fd, Law::Trn)
+    suite_with(seed, preset, fd, ControllerChoice::Trn)
 }
 
-fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
+fn suite_with(seed: u64, preset: Preset, fd: bool, law: ControllerChoice) {
     let mut spec = RunSpec::new(Command::Conformance, seed);
     spec.profile = Profile {
         preset,
@@ -44,7 +44,7 @@ fn suite_with(seed: u64, preset: Preset, fd: bool, law: Law) {
         "SessionConfig{keep_tables: true} of another",
         "SessionConfig{keep_tables: true} of the tables' own",
     ];
-    if law == Law::Trn {
+    if law == ControllerChoice::Trn {
         names.push("TableWriteBegin into learned tables without a nonce");
         names.push("A write begun with GuardNonce{TableWrite}");
         // another operation's nonce refused as wrong with the re-seed's op
@@ -74,12 +74,12 @@ fn the_project_node_conforms_on_can_fd_with_the_paper_preset() {
 
 #[test]
 fn the_broyden_baseline_conforms_too() {
-    suite_with(102, Preset::Project, false, Law::Broyden);
+    suite_with(102, Preset::Project, false, ControllerChoice::Broyden);
 }
 
 #[test]
 fn the_model_based_reference_conforms_too() {
-    suite_with(103, Preset::Project, false, Law::Model);
+    suite_with(103, Preset::Project, false, ControllerChoice::Model);
 }
 
 // The oracle is not run through the suite: it commands from the plant's true state, so the

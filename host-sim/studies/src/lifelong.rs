@@ -14,8 +14,8 @@ use serde::Serialize;
 
 use std::path::PathBuf;
 
+use trn_bench::spec::ControllerChoice;
 use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 
 use crate::study::{Finished, LifelongTable, Row, RunFile, Study, StudyHeader, Table};
 use trn_bench::format::px;
@@ -57,7 +57,7 @@ pub struct Arm {
     /// Controller preset.
     pub preset: Preset,
     /// Control law.
-    pub law: Law,
+    pub law: ControllerChoice,
     /// Learning stops after the initial training.
     pub frozen: bool,
 }
@@ -68,28 +68,28 @@ pub const ARMS: [Arm; 4] = [
         key: "frozen",
         name: "project, frozen after the initial training",
         preset: Preset::Project,
-        law: Law::Trn,
+        law: ControllerChoice::Trn,
         frozen: true,
     },
     Arm {
         key: "project",
         name: "project preset (decaying rates)",
         preset: Preset::Project,
-        law: Law::Trn,
+        law: ControllerChoice::Trn,
         frozen: false,
     },
     Arm {
         key: "lifelong",
         name: "lifelong preset (rate floor)",
         preset: Preset::Lifelong,
-        law: Law::Trn,
+        law: ControllerChoice::Trn,
         frozen: false,
     },
     Arm {
         key: "broyden",
         name: "Broyden servo (no training)",
         preset: Preset::Project,
-        law: Law::Broyden,
+        law: ControllerChoice::Broyden,
         frozen: false,
     },
 ];

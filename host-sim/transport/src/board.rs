@@ -246,10 +246,10 @@ pub fn restore_problem(e: &RestoreError) -> Option<String> {
 }
 
 /// The guard's seed of a host node from a number (the in-process controller: the run's
-/// seed, so a run is reproducible), spread by SplitMix64 so that no seed gives the all-zero
-/// state an unseeded guard has.
+/// guard sub-seed, so a run is reproducible), spread by SplitMix64 so that no seed gives the
+/// all-zero state an unseeded guard has.
 pub fn guard_seed(seed: u64) -> [u8; 16] {
-    let mut x = seed ^ 0x6A09_E667_F3BC_C908;
+    let mut x = seed;
     let mut next = || {
         x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = x;

@@ -3,8 +3,8 @@
 //! held checked against it), and acknowledged by its echo.
 
 use trn_controller::checkpoint::Provenance;
-use trn_controller::presets::{self, Ablation, ImageSize, Preset};
-use trn_controller::{Config, Control, Error as CtrlError, Law};
+use trn_controller::presets::{Ablation, ImageSize, Preset, SessionProfile};
+use trn_controller::{Control, Error as CtrlError};
 use trn_protocol::{BusMode, GuardOp, Mode, NodeId, SessionConfig};
 
 use super::tables::learned;
@@ -43,28 +43,33 @@ impl ControllerNode {
         if self.mode != Mode::Idle || self.trial.is_some() {
             return refuse(self, codes::CONFIG_NOT_IDLE, out);
         }
-        // the codes were range-checked on decode (`Message::validate`)
-        let (Some(preset), Some(ablation), Some(law)) = (
-            Preset::from_code(c.preset),
-            Ablation::from_code(c.ablation),
-            Law::from_code(c.law),
-        ) else {
+        // the codes were range-checked on decode (`Message::validate`); a law the controller
+        // does not run (a host-side law's code to the core) is unsupported, not invalid
+        let (Some(preset), Some(ablation)) =
+            (Preset::from_code(c.preset), Ablation::from_code(c.ablation))
+        else {
             return refuse(self, codes::CONFIG_INVALID, out);
         };
         let image = ImageSize {
             width: c.image_width,
             height: c.image_height,
         };
-        let cfg = Config {
-            law,
-            ..presets::configure(preset, ablation, image)
-        };
         let rejected = |e: CtrlError| match e {
             CtrlError::UnsupportedLaw => codes::CONFIG_UNSUPPORTED,
             _ => codes::CONFIG_INVALID,
         };
+        let asked = SessionProfile {
+            preset,
+            ablation,
+            law: c.law,
+            image,
+        };
+        let (cfg, fingerprint) = match ctrl.session_config(asked) {
+            Ok(given) => given,
+            Err(e) => return refuse(self, rejected(e), out),
+        };
         if c.keep_tables {
-            if self.tables_fingerprint(ctrl) != cfg.fingerprint() {
+            if self.tables_fingerprint(ctrl) != fingerprint {
                 return refuse(self, codes::CONFIG_MISMATCH, out);
             }
             if *ctrl.config() != cfg {
@@ -85,7 +90,7 @@ impl ControllerNode {
             }
             ctrl.init_random(c.seed);
             self.tables_changed(ctrl, false);
-            self.tables.fingerprint = Some(cfg.fingerprint());
+            self.tables.fingerprint = Some(fingerprint);
         }
         self.tables.provenance = Provenance {
             preset: c.preset,

@@ -132,7 +132,7 @@ impl ControllerNode {
     pub(crate) fn tables_fingerprint<C: Control + ?Sized>(&self, ctrl: &C) -> u32 {
         self.tables
             .fingerprint
-            .unwrap_or_else(|| ctrl.config().fingerprint())
+            .unwrap_or_else(|| ctrl.fingerprint())
     }
 
     /// The status of the tables and the stored copy.

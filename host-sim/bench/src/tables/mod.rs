@@ -15,9 +15,9 @@ mod write;
 #[cfg(test)]
 mod tests;
 
+use crate::spec::{ControllerChoice, Profile};
 use embedded_can::blocking::Can;
 use trn_controller::presets::{Ablation, ImageSize, Preset};
-use trn_controller::Law;
 use trn_node::codes::{self, table_op};
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
@@ -224,19 +224,20 @@ pub(crate) fn retry_with_new_nonce(detail: u32) -> bool {
 /// The named configuration (preset, ablation, law) whose fingerprint is `fingerprint` for
 /// images of `image`, if one is.
 pub fn configuration_named(fingerprint: u32, image: ImageSize) -> Option<String> {
-    for &law in Law::ALL {
+    for &law in ControllerChoice::ALL {
         for &preset in Preset::ALL {
             for &ablation in Ablation::ALL {
-                let cfg = trn_controller::Config {
+                let profile = Profile {
+                    preset,
+                    ablation,
                     law,
-                    ..trn_controller::presets::configure(preset, ablation, image)
                 };
-                if cfg.fingerprint() == fingerprint {
+                if profile.fingerprint_of(&profile.config(image)) == fingerprint {
                     let mut s = format!("--preset {}", preset.name());
                     if ablation != Ablation::None {
                         s += &format!(" --ablation {}", ablation.name());
                     }
-                    if law != Law::Trn {
+                    if law != ControllerChoice::Trn {
                         s += &format!(" --controller {}", law.name());
                     }
                     return Some(s);

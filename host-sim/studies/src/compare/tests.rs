@@ -3,62 +3,74 @@
 
 use super::*;
 use crate::study::file::Overrides;
+use trn_bench::spec::ControllerChoice;
 use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 
 /// The table of the comparison before it became a study file (name, preset, ablation,
 /// law, training trials at 300) and the oracle's row added since: `studies/compare.toml`
 /// must describe exactly these runs, so the published figures stand.
-const BEFORE: [(&str, Preset, Ablation, Law, usize); 9] = [
-    ("project", Preset::Project, Ablation::None, Law::Trn, 300),
-    ("paper", Preset::Paper, Ablation::None, Law::Trn, 300),
+const BEFORE: [(&str, Preset, Ablation, ControllerChoice, usize); 9] = [
+    (
+        "project",
+        Preset::Project,
+        Ablation::None,
+        ControllerChoice::Trn,
+        300,
+    ),
+    (
+        "paper",
+        Preset::Paper,
+        Ablation::None,
+        ControllerChoice::Trn,
+        300,
+    ),
     (
         "project, no-neighbourhood (plain VQ table)",
         Preset::Project,
         Ablation::NoNeighbourhood,
-        Law::Trn,
+        ControllerChoice::Trn,
         300,
     ),
     (
         "project, no-priming",
         Preset::Project,
         Ablation::NoPriming,
-        Law::Trn,
+        ControllerChoice::Trn,
         300,
     ),
     (
         "project, no-fine",
         Preset::Project,
         Ablation::NoFine,
-        Law::Trn,
+        ControllerChoice::Trn,
         300,
     ),
     (
         "project, no-trial-secant",
         Preset::Project,
         Ablation::NoTrialSecant,
-        Law::Trn,
+        ControllerChoice::Trn,
         300,
     ),
     (
         "Broyden servo (no training)",
         Preset::Project,
         Ablation::None,
-        Law::Broyden,
+        ControllerChoice::Broyden,
         0,
     ),
     (
         "nominal inverse kinematics (calibrated model, no learning)",
         Preset::Project,
         Ablation::None,
-        Law::Model,
+        ControllerChoice::Model,
         0,
     ),
     (
         "oracle (exact copy of the plant: the physical limit)",
         Preset::Project,
         Ablation::None,
-        Law::Oracle,
+        ControllerChoice::Oracle,
         0,
     ),
 ];

@@ -44,8 +44,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 use toml::Value;
+use trn_bench::spec::ControllerChoice;
 use trn_controller::presets::{Ablation, Preset};
-use trn_controller::Law;
 use trn_plant::SimConfig;
 
 use super::keys::{get, set, CONTROLLER, PLANT};
@@ -115,7 +115,7 @@ pub struct Settings {
     /// Ablation.
     pub ablation: Option<Ablation>,
     /// Control law.
-    pub law: Option<Law>,
+    pub law: Option<ControllerChoice>,
     /// Training trials per network.
     pub trials: Option<usize>,
     /// Held-out targets per network.
