@@ -148,8 +148,12 @@ impl Plant {
             .collect();
         let chain = self.chain();
         let mut occluders = Vec::new();
+        // as the geometric model (`Plant::hidden_by`) does, a light is not hidden by what
+        // lies within two link radii of it along the ray: a piece whose surface comes that
+        // near a light of the capture is left out (the hand's end, by the centre light)
+        let clear = 2.0 * self.cfg.link_radius_mm;
         for (a, b, r) in self.links(&chain, lights) {
-            link_pieces(camera, &a, &b, r, &mut occluders);
+            link_pieces(camera, (&a, &b, r), (lights, clear - r), &mut occluders);
         }
         (emitters, occluders)
     }
@@ -421,12 +425,19 @@ fn moved(shape: &Shape, by: [f64; 2]) -> Shape {
 
 /// The capsule from `a` to `b` of radius `r` (mm) as image capsules, one per piece between
 /// consecutive axis points that project into the image.
-fn link_pieces(camera: &Camera, a: &V3, b: &V3, r: f64, out: &mut Vec<Occluder>) {
+/// Pieces whose axis passes within `clear.1` (mm) of a light of `clear.0` are left out.
+fn link_pieces(
+    camera: &Camera,
+    (a, b, r): (&V3, &V3, f64),
+    clear: (&[V3], f64),
+    out: &mut Vec<Occluder>,
+) {
     let eye = camera.position();
     let axis = sub(b, a);
+    let at = |i: usize| add(a, &scale(&axis, i as f64 / LINK_POINTS as f64));
     let seen: Vec<Option<([f64; 2], f64, f64)>> = (0..=LINK_POINTS)
         .map(|i| {
-            let p = add(a, &scale(&axis, i as f64 / LINK_POINTS as f64));
+            let p = at(i);
             let (u, v) = camera.project(&p)?;
             // the link's half-width on the image: a point r off the axis, across the view
             let view = sub(&p, &eye);
@@ -441,7 +452,15 @@ fn link_pieces(camera: &Camera, a: &V3, b: &V3, r: f64, out: &mut Vec<Occluder>)
             Some(([u, v], (su - u).hypot(sv - v), norm(&view) - r))
         })
         .collect();
-    for pair in seen.windows(2) {
+    for (i, pair) in seen.windows(2).enumerate() {
+        let (p0, p1) = (at(i), at(i + 1));
+        if clear
+            .0
+            .iter()
+            .any(|l| segment_distance(l, &p0, &p1) < clear.1)
+        {
+            continue;
+        }
         if let [Some((pa, ra, da)), Some((pb, rb, db))] = pair {
             out.push(Occluder {
                 shape: Shape::Capsule {
