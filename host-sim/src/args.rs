@@ -28,6 +28,9 @@ impl Common {
     /// The run these options describe.
     pub fn spec(&self, command: Command, trials: usize) -> Result<RunSpec, LabError> {
         let mut spec = RunSpec::new(command, self.seed).with_plant(self.config.as_deref())?;
+        if let Some(v) = self.vision {
+            spec.plant.vision = v.into();
+        }
         spec.profile = Profile {
             preset: self.preset,
             ablation: self.ablation,
@@ -103,6 +106,7 @@ impl StudyOverrides {
             trials: self.trials.map(count),
             eval_targets: self.eval_targets.map(count),
             grasps: self.grasps.map(count),
+            vision: self.vision.map(Into::into),
         }
     }
 }

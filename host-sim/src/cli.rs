@@ -103,6 +103,30 @@ pub struct StudyOverrides {
     /// Grasps in the evaluation (default: the study's).
     #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub grasps: Option<u64>,
+    /// How the camera processor reads the lights: `geometric` (the default: each light's
+    /// projection plus noise, outliers and dropouts by rule; fast) or `pixels` (every
+    /// capture rendered frame by frame and read by the camera processor on pixels; the
+    /// plant key `vision`). Recorded with the plant in the report.
+    #[arg(long, value_enum)]
+    pub vision: Option<VisionArg>,
+}
+
+/// The camera processor of `--vision`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum VisionArg {
+    /// Projection plus noise of a chosen size (`pixel_noise_px`).
+    Geometric,
+    /// Rendered frames read by the camera processor on pixels (`[pixels]`).
+    Pixels,
+}
+
+impl From<VisionArg> for trn_plant::Vision {
+    fn from(v: VisionArg) -> trn_plant::Vision {
+        match v {
+            VisionArg::Geometric => trn_plant::Vision::Geometric,
+            VisionArg::Pixels => trn_plant::Vision::Pixels,
+        }
+    }
 }
 
 /// `trn study`.
@@ -245,6 +269,12 @@ pub struct Common {
     /// the realistic plant with the same drift and wear).
     #[arg(long)]
     pub config: Option<String>,
+    /// How the camera processor reads the lights: `geometric` (the default: each light's
+    /// projection plus noise, outliers and dropouts by rule; fast) or `pixels` (every
+    /// capture rendered frame by frame and read by the camera processor on pixels; the
+    /// plant key `vision`). Recorded with the plant in the report.
+    #[arg(long, value_enum)]
+    pub vision: Option<VisionArg>,
     /// Bus: `inproc` (the controller node in this process on a simulated clock, the
     /// default), `socketcan:IFACE` (a separate `controller-node` process on IFACE: vcan0 or
     /// a real adapter), `slcan:qemu` (the firmware in QEMU, CAN frames as SLCAN over its

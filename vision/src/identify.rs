@@ -18,7 +18,9 @@
 //! gives a code of another weight, which is no light's: the light is **Missing**, never taken
 //! for another. Two lights within the gate of each other fall into one track whose code is no
 //! light's (both Missing), or make a track with two blobs in one frame or a blob near two
-//! tracks (**Ambiguous**). Blobs the detector rejected as too large, crowded, empty or
+//! tracks (**Ambiguous**); a merged blob that joins the track of one of its lights carries
+//! about twice that light's signal, and a track whose blobs' signals differ by more than
+//! [`MAX_SIGNAL_RATIO`] is not clean (**Ambiguous**). Blobs the detector rejected as too large, crowded, empty or
 //! elongated count as seen but make their track ambiguous; blobs too small to be lights are
 //! ignored.
 //!
@@ -151,6 +153,11 @@ pub struct Identifier {
     gate_px: f64,
 }
 
+/// The most a track's blobs' signals may differ (the largest over the smallest): one light's
+/// blobs carry the same signal in every frame; a blob of two merged lights carries about
+/// twice, a light partly hidden in one frame less.
+pub const MAX_SIGNAL_RATIO: f64 = 1.5;
+
 #[derive(Debug, Clone)]
 struct Track {
     sum: [f64; 2],
@@ -158,6 +165,8 @@ struct Track {
     measured: usize,
     frames: u32,
     clean: bool,
+    /// The smallest and largest signal of its measured blobs.
+    signal: [f64; 2],
 }
 
 impl Track {
@@ -191,13 +200,19 @@ impl Identifier {
         let mut tracks: Vec<Track> = Vec::new();
         for (f, d) in frames.iter().enumerate() {
             let bit = 1u32 << f;
-            let seen = d.blobs.iter().map(|b| (b.centre, true)).chain(
+            let seen = d.blobs.iter().map(|b| (b, true)).chain(
                 d.rejected
                     .iter()
                     .filter(|(_, r)| *r != Rejection::TooSmall)
-                    .map(|(b, _)| (b.centre, false)),
+                    .map(|(b, _)| (b, false)),
             );
-            for (c, measured) in seen {
+            for (b, measured) in seen {
+                let c = b.centre;
+                let signal = if measured {
+                    [b.signal_dn, b.signal_dn]
+                } else {
+                    [f64::INFINITY, f64::NEG_INFINITY]
+                };
                 if !c.iter().all(|v| v.is_finite()) {
                     continue;
                 }
@@ -217,6 +232,7 @@ impl Identifier {
                         measured: measured as usize,
                         frames: bit,
                         clean: measured,
+                        signal,
                     });
                     continue;
                 };
@@ -231,6 +247,10 @@ impl Identifier {
                 t.sum = [t.sum[0] + c[0], t.sum[1] + c[1]];
                 t.n += 1.0;
                 t.measured += measured as usize;
+                t.signal = [t.signal[0].min(signal[0]), t.signal[1].max(signal[1])];
+                if t.signal[1] > MAX_SIGNAL_RATIO * t.signal[0] {
+                    t.clean = false;
+                }
             }
         }
         Ok(self

@@ -397,6 +397,21 @@ impl<P: Sample> Renderer<P> {
         })
     }
 
+    /// The same sensor cut to a `width` x `height` window (a region of interest), its
+    /// background's table kept.
+    pub fn with_size(&self, width: u32, height: u32) -> Result<Renderer<P>, VisionError> {
+        let sensor = Sensor {
+            width,
+            height,
+            ..self.sensor.clone()
+        };
+        sensor.validate()?;
+        Ok(Renderer {
+            sensor,
+            ..self.clone()
+        })
+    }
+
     /// The sensor.
     pub fn sensor(&self) -> &Sensor {
         &self.sensor

@@ -43,6 +43,11 @@ impl Camera {
         }
     }
 
+    /// The focal length (pixels).
+    pub fn focal_px(&self) -> f64 {
+        self.f
+    }
+
     /// The camera centre (mm).
     pub fn position(&self) -> V3 {
         self.pos

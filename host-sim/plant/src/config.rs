@@ -168,6 +168,60 @@ pub struct RealismConfig {
     pub occlude_hand_and_cylinder: bool,
 }
 
+/// How the camera processor reads the lights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Vision {
+    /// Each light's projection plus Gaussian noise of `pixel_noise_px`, hidden by the
+    /// geometry, outliers and dropouts drawn by rule: fast, for studies.
+    #[default]
+    Geometric,
+    /// Every capture rendered frame by frame (`[pixels]`) and read by the camera processor
+    /// on pixels (`trn_vision`): detection, identification by the capture protocol.
+    Pixels,
+}
+
+/// The cameras' frames when the lights are read on pixels (`vision = "pixels"`): the LEDs,
+/// the lens and the sensor. The other sensor values are `trn_vision::Sensor::machine_vision`'s
+/// (8 bits, 20 e- per DN, black level 10 DN, full well 12,000 e-).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PixelsConfig {
+    /// Exposure time of each frame (ms): the LEDs' and the stray light's electrons grow with
+    /// it, and so does the smear of a moving light.
+    pub exposure_ms: f64,
+    /// Photo-electrons an LED delivers per ms of exposure at 2 m from the camera (falling
+    /// with the square of the distance).
+    pub led_electrons_per_ms: f64,
+    /// Diameter of an LED's emitting disc (mm): its image is a disc of that size at the
+    /// light's distance, blurred by the lens.
+    pub led_diameter_mm: f64,
+    /// The lens's blur (defocus and aberrations), a Gaussian's standard deviation (px).
+    pub blur_px: f64,
+    /// The sensor's read noise (electrons, standard deviation).
+    pub read_noise_e: f64,
+    /// Stray light and dark current per pixel (electrons per ms of exposure).
+    pub stray_electrons_per_ms: f64,
+    /// The identifier's gate (px): a blob within it of a track joins the track.
+    pub gate_px: f64,
+}
+
+impl Default for PixelsConfig {
+    /// An LED of 5 mm blurred by 1.2 px: a spot of 1.3 px at 2 m; 30,000 electrons and 50
+    /// of stray light per pixel over 10 ms; 5 electrons of read noise; a 3 px gate.
+    fn default() -> PixelsConfig {
+        PixelsConfig {
+            exposure_ms: 10.0,
+            led_electrons_per_ms: 3_000.0,
+            led_diameter_mm: 5.0,
+            blur_px: 1.2,
+            read_noise_e: 5.0,
+            stray_electrons_per_ms: 5.0,
+            gate_px: 3.0,
+        }
+    }
+}
+
 /// The whole simulator configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -189,8 +243,13 @@ pub struct SimConfig {
     pub light_offset_mm: f64,
     /// Radius of the links for occlusion (mm).
     pub link_radius_mm: f64,
-    /// Pixel noise of a light centroid, per coordinate (pixels, standard deviation).
+    /// Pixel noise of a light centroid, per coordinate (pixels, standard deviation), of the
+    /// geometric camera model; with `vision = "pixels"` the stereo check's and the marker
+    /// fit's scale of the noise.
     pub pixel_noise_px: f64,
+    /// How the camera processor reads the lights (absent: geometric).
+    #[serde(default)]
+    pub vision: Vision,
     /// The five joints.
     pub joints: Vec<JointConfig>,
     /// The two cameras.
@@ -200,6 +259,9 @@ pub struct SimConfig {
     /// Effects of the real arm beyond the ideal plant (absent: all off).
     #[serde(default)]
     pub realism: RealismConfig,
+    /// The frames when `vision = "pixels"` (absent: the defaults).
+    #[serde(default)]
+    pub pixels: PixelsConfig,
     /// The cylinder's centre lies this far ahead of the pre-grasp gripper centre (mm).
     pub approach_mm: f64,
     /// Cylinder radius (mm).
@@ -241,6 +303,7 @@ impl Default for SimConfig {
             light_offset_mm: 50.0,
             link_radius_mm: 35.0,
             pixel_noise_px: 0.3,
+            vision: Vision::Geometric,
             joints: vec![
                 joint("base", -17.0, 17.0, 1.6),
                 joint("shoulder", -3.0, 53.0, 1.8),
@@ -275,6 +338,7 @@ impl Default for SimConfig {
                 wear_offset_max_deg: default_wear_offset_max_deg(),
             },
             realism: RealismConfig::default(),
+            pixels: PixelsConfig::default(),
             approach_mm: 40.0,
             cylinder_radius_mm: 25.0,
             cylinder_length_mm: 120.0,

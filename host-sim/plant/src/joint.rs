@@ -179,6 +179,11 @@ impl Joint {
         self.angle
     }
 
+    /// The joint's angular velocity (rad/s).
+    pub fn velocity(&self) -> f64 {
+        self.velocity
+    }
+
     /// The joint angle (degrees).
     pub fn angle_deg(&self) -> f64 {
         self.angle.to_degrees()

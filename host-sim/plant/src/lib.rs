@@ -30,7 +30,9 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::PlantError as Error;
 use camera::Camera;
-pub use config::{CameraConfig, DriftConfig, JointConfig, RealismConfig, SimConfig};
+pub use config::{
+    CameraConfig, DriftConfig, JointConfig, PixelsConfig, RealismConfig, SimConfig, Vision,
+};
 pub use error::PlantError;
 pub use grasp::{Cylinder, GraspScore};
 use joint::Joint;

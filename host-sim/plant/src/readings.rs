@@ -1,9 +1,25 @@
 //! Camera readings of the plant's lights: projection through both cameras, occlusion by the
 //! links, centroid noise.
 
+use rand_core::RngCore;
+use trn_vision::CaptureProtocol;
+
+use super::config::Vision;
+use super::pixels::{CaptureExtras, PixelVision};
 use super::random::{gaussian, uniform};
 use super::vec3::{add, scale, segments_distance, sub, unit, V3};
 use super::{kinematics, Chain, Plant};
+
+/// Which of the plant's lights a reading is of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Marks {
+    /// The gripper's lights p and q.
+    GripperLights,
+    /// The gripper's centre light c.
+    GripperCentre,
+    /// The light at the cylinder's centre.
+    CylinderCentre,
+}
 
 /// Why a light has no reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -184,13 +200,25 @@ impl Plant {
         }
     }
 
-    fn observe_points<const K: usize>(&mut self, lights: &[V3], noisy: bool) -> Readings<K> {
+    fn observe_points<const K: usize>(&mut self, marks: Marks, noisy: bool) -> Readings<K> {
         let chain = self.chain();
+        let lights = self.marks(marks, &chain);
         let mut points = [PixelReading {
             x: f64::NAN,
             y: f64::NAN,
             status: PointStatus::NotDetected,
         }; K];
+        if noisy && self.cfg.vision == Vision::Pixels {
+            let read = self.observe_on_pixels(marks, &lights);
+            for (cam, readings) in read.iter().enumerate() {
+                for (i, r) in readings.iter().enumerate() {
+                    if let Some(slot) = points.get_mut(2 * i + cam) {
+                        *slot = *r;
+                    }
+                }
+            }
+            return Readings { points };
+        }
         for (i, light) in lights.iter().enumerate() {
             for cam in 0..2 {
                 if let Some(slot) = points.get_mut(2 * i + cam) {
@@ -201,28 +229,93 @@ impl Plant {
         Readings { points }
     }
 
+    /// The lights of `marks` where the arm is in `chain`.
+    fn marks(&self, marks: Marks, chain: &Chain) -> Vec<V3> {
+        match marks {
+            Marks::GripperLights => kinematics::lights(&self.cfg, &chain.pose).to_vec(),
+            Marks::GripperCentre => vec![chain.pose.centre_mm],
+            Marks::CylinderCentre => self.cylinder.iter().map(|c| c.centre).collect(),
+        }
+    }
+
+    /// `lights` (those of `marks`) read on pixels by both cameras (`vision = "pixels"`): one
+    /// capture per camera, the lights lit one per frame, each frame's exposure centred on
+    /// this moment with the arm moving as it does now; a light fails to fire and a reflection
+    /// of it appears somewhere in the image at the rates of `[realism]`. A capture the
+    /// camera processor cannot read (which a valid configuration never gives) reads nothing.
+    fn observe_on_pixels(&mut self, marks: Marks, lights: &[V3]) -> [Vec<PixelReading>; 2] {
+        let v = PixelVision::from_config(&self.cfg.pixels);
+        let exposure_s = 1e-3 * self.cfg.pixels.exposure_ms;
+        let q = self.joint_angles();
+        let mut qa = q;
+        let mut qb = q;
+        for (i, j) in self.joints.iter().enumerate() {
+            qa[i] -= 0.5 * exposure_s * j.velocity();
+            qb[i] += 0.5 * exposure_s * j.velocity();
+        }
+        let before = self.marks(marks, &kinematics::forward(&self.cfg, &qa));
+        let after = self.marks(marks, &kinematics::forward(&self.cfg, &qb));
+        let motion_mm: Vec<V3> = after.iter().zip(&before).map(|(b, a)| sub(b, a)).collect();
+        let nothing = || {
+            vec![
+                PixelReading {
+                    x: f64::NAN,
+                    y: f64::NAN,
+                    status: PointStatus::NotDetected,
+                };
+                lights.len()
+            ]
+        };
+        let Ok(protocol) = CaptureProtocol::sequential(lights.len()) else {
+            return [nothing(), nothing()];
+        };
+        let realism = self.cfg.realism.clone();
+        [0, 1].map(|cam| {
+            let mut extras = CaptureExtras {
+                motion_mm: motion_mm.clone(),
+                ..CaptureExtras::default()
+            };
+            let [w, h] = self.cameras[cam].size;
+            for i in 0..lights.len() {
+                if realism.dropout_rate > 0.0
+                    && uniform(&mut self.noise, 0.0, 1.0) < realism.dropout_rate
+                {
+                    extras.dark.push(i);
+                }
+                if realism.outlier_rate > 0.0
+                    && uniform(&mut self.noise, 0.0, 1.0) < realism.outlier_rate
+                {
+                    let at = [
+                        uniform(&mut self.noise, 0.0, w as f64),
+                        uniform(&mut self.noise, 0.0, h as f64),
+                    ];
+                    extras.reflections.push((i, at));
+                }
+            }
+            let seed = self.noise.next_u64();
+            self.read_capture(cam, lights, &extras, &protocol, &v, seed)
+                .unwrap_or_else(|_| nothing())
+        })
+    }
+
     /// The gripper lights p and q in both cameras (stage 1's 8-D input), with pixel noise.
     pub fn observe_gripper_lights(&mut self) -> Readings<4> {
-        let l = kinematics::lights(&self.cfg, &self.gripper_pose());
-        self.observe_points(&l, true)
+        self.observe_points(Marks::GripperLights, true)
     }
 
     /// The same without noise (ground truth).
     pub fn observe_gripper_lights_true(&mut self) -> Readings<4> {
-        let l = kinematics::lights(&self.cfg, &self.gripper_pose());
-        self.observe_points(&l, false)
+        self.observe_points(Marks::GripperLights, false)
     }
 
     /// The gripper-centre light in both cameras (stage 2's 4-D input), with pixel noise.
     pub fn observe_gripper_centre(&mut self) -> Readings<2> {
-        let c = self.gripper_pose().centre_mm;
-        self.observe_points(&[c], true)
+        self.observe_points(Marks::GripperCentre, true)
     }
 
     /// The same without noise.
     pub fn observe_gripper_centre_true(&mut self) -> Readings<2> {
-        let c = self.gripper_pose().centre_mm;
-        self.observe_points(&[c], false)
+        self.observe_points(Marks::GripperCentre, false)
     }
 
     /// The centre of the cylinder (the middle of its axis ab) in both cameras, with noise.
@@ -237,7 +330,7 @@ impl Plant {
 
     fn observe_cylinder(&mut self, noisy: bool) -> Readings<2> {
         match self.cylinder {
-            Some(c) => self.observe_points(&[c.centre], noisy),
+            Some(_) => self.observe_points(Marks::CylinderCentre, noisy),
             None => {
                 let none = PixelReading {
                     x: f64::NAN,

@@ -181,6 +181,18 @@ pub fn validate(c: &SimConfig) -> Result<(), Error> {
     between("realism.hysteresis_skew", r.hysteresis_skew, 0.0, 1.0)?;
     between("realism.outlier_rate", r.outlier_rate, 0.0, 0.5)?;
     between("realism.dropout_rate", r.dropout_rate, 0.0, 0.5)?;
+    let x = &c.pixels;
+    positive("pixels.exposure_ms", x.exposure_ms, 1000.0)?;
+    at_least_zero("pixels.led_electrons_per_ms", x.led_electrons_per_ms, 1e6)?;
+    at_least_zero("pixels.led_diameter_mm", x.led_diameter_mm, 100.0)?;
+    between("pixels.blur_px", x.blur_px, 0.1, 20.0)?;
+    at_least_zero("pixels.read_noise_e", x.read_noise_e, 1000.0)?;
+    at_least_zero(
+        "pixels.stray_electrons_per_ms",
+        x.stray_electrons_per_ms,
+        1e4,
+    )?;
+    positive("pixels.gate_px", x.gate_px, 50.0)?;
     Ok(())
 }
 

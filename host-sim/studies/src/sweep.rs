@@ -236,4 +236,63 @@ mod tests {
         }
         let _ = std::fs::remove_dir_all(&out);
     }
+
+    #[test]
+    fn the_pixel_sweep_changes_one_thing_of_the_frames_per_row() {
+        let out = std::env::temp_dir().join(format!("trn-sweep-pixels-{}", std::process::id()));
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../studies/sweep-pixels.toml");
+        let spec = SweepSpec {
+            study: Some(file),
+            over: Overrides {
+                seeds: Some(1),
+                ..Overrides::default()
+            },
+            out: out.clone(),
+        };
+        let s = spec.study().unwrap();
+        let plants: Vec<SimConfig> = s.jobs.iter().map(|j| j.spec.plant.clone()).collect();
+        let real = SimConfig::realistic();
+        let mut pixels = real.clone();
+        pixels.vision = trn_plant::Vision::Pixels;
+        let p = real.pixels.clone();
+        let with = |f: &dyn Fn(&mut trn_plant::PixelsConfig)| {
+            let mut c = pixels.clone();
+            f(&mut c.pixels);
+            c
+        };
+        let want = vec![
+            real.clone(),
+            pixels.clone(),
+            with(&|x| x.exposure_ms = 2.0),
+            with(&|x| x.exposure_ms = 40.0),
+            with(&|x| x.blur_px = 0.5),
+            with(&|x| x.blur_px = 2.5),
+            with(&|x| {
+                x.read_noise_e = 30.0;
+                x.stray_electrons_per_ms = 50.0;
+            }),
+            with(&|x| x.led_diameter_mm = 2.0),
+            with(&|x| x.led_diameter_mm = 15.0),
+        ];
+        assert_eq!(plants, want);
+        assert_eq!(p, trn_plant::PixelsConfig::default());
+        // `--vision` sets the base: every row of the built-in sweep, which sets none
+        let all = SweepSpec {
+            study: None,
+            over: Overrides {
+                seeds: Some(1),
+                vision: Some(trn_plant::Vision::Pixels),
+                ..Overrides::default()
+            },
+            out: out.clone(),
+        }
+        .study()
+        .unwrap();
+        assert!(all
+            .jobs
+            .iter()
+            .all(|j| j.spec.plant.vision == trn_plant::Vision::Pixels));
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

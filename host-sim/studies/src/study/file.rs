@@ -196,6 +196,9 @@ pub struct Overrides {
     pub eval_targets: Option<usize>,
     /// Grasps of the base.
     pub grasps: Option<usize>,
+    /// How every run's camera processor reads the lights (the plant key `vision`, set on
+    /// the base: a row that sets its own keeps it).
+    pub vision: Option<trn_plant::Vision>,
 }
 
 impl StudyFile {
@@ -221,6 +224,10 @@ impl StudyFile {
         base.trials = over.trials.or(base.trials);
         base.eval_targets = over.eval_targets.or(base.eval_targets);
         base.grasps = over.grasps.or(base.grasps);
+        if let Some(v) = over.vision {
+            let v = toml::Value::try_from(v).map_err(|e| LabError::Usage(e.to_string()))?;
+            base.set.insert("vision".into(), v);
+        }
         let seeds = match (&self.seeds, over.seeds) {
             (Seeds::Range { first, .. }, Some(n)) => Seeds::Range {
                 first: *first,
