@@ -27,7 +27,7 @@ use crate::fsio::write_durably;
 use trn_plant::{Plant, SimConfig};
 
 /// The format version this build writes and reads.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 const MAGIC: [u8; 4] = *b"TRNS";
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 /// Far more than any state (a plant is a few kilobytes, the training curve ten bytes a
@@ -88,6 +88,16 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<SimState> {
     let (body, crc) = bytes.split_at(bytes.len() - 4);
     if CRC.checksum(body).to_le_bytes() != crc {
         return Err(bad(path, "CRC mismatch (corrupt or truncated)"));
+    }
+    // the version first, so that a state of another format is named as such rather than
+    // reported undecodable (version 3: the plant's configuration gained its vision model)
+    if let Ok((version, _)) = postcard::take_from_bytes::<u16>(&body[4..]) {
+        if version != VERSION {
+            return Err(bad(
+                path,
+                &format!("format version {version} (this build reads {VERSION})"),
+            ));
+        }
     }
     let state: SimState =
         postcard::from_bytes(&body[4..]).map_err(|e| bad(path, &format!("undecodable: {e}")))?;
@@ -198,6 +208,25 @@ mod tests {
             );
         }
         assert_eq!((back.trials_done, back.runner_trial), (12, 40));
+    }
+
+    /// A state of another format version is named as such, even when the rest of it (a
+    /// plant of an earlier build, here only its version and a few bytes) does not decode.
+    #[test]
+    fn another_version_is_named() {
+        let mut body = MAGIC.to_vec();
+        body.extend(postcard::to_allocvec(&(VERSION - 1)).unwrap());
+        body.extend([0xff; 6]);
+        let crc = CRC.checksum(&body).to_le_bytes();
+        body.extend(crc);
+        let err = decode(&body, Path::new("old.sim")).unwrap_err().to_string();
+        assert!(
+            err.contains(&format!(
+                "format version {} (this build reads {VERSION})",
+                VERSION - 1
+            )),
+            "{err}"
+        );
     }
 
     /// Every single-bit flip and every truncation is refused with an error, never a panic
