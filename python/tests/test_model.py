@@ -1,8 +1,10 @@
 """The arm's URDF and MJCF (``trn_softarm.arm_model``) read by MuJoCo's own loaders, their
 forward kinematics against the plant's (``trn_softarm.arm_frames``) at 1,000 seeded random
-joint configurations: every frame within 0.1 mm, the gripper's axes within 1e-6.
+joint configurations: every frame within 0.1 mm, the gripper's axes within 1e-6; the URDF
+read by rerun's own URDF loader (what ``rerun softarm.urdf`` shows).
 
-The MuJoCo tests are skipped when MuJoCo is not installed (``pip install mujoco``; scripts/python-package.sh
+The MuJoCo tests are skipped when MuJoCo is not installed, the rerun one without the rerun
+SDK (``pip install mujoco``; scripts/python-package.sh
 installs it).
 
     pytest python/tests/test_model.py
@@ -25,6 +27,14 @@ except ImportError:
     mujoco = None
 
 needs_mujoco = pytest.mark.skipif(mujoco is None, reason="MuJoCo is not installed (pip install mujoco)")
+
+try:
+    import rerun
+    from rerun.recording import load_recording
+except ImportError:
+    rerun = None
+
+needs_rerun = pytest.mark.skipif(rerun is None, reason="the rerun SDK is not installed (the [live] extra)")
 
 FRAMES = ["upper_arm", "forearm", "wrist", "gripper_centre", "light_p", "light_q"]
 JOINTS = ["base", "shoulder", "elbow", "wrist_pitch", "wrist_roll"]
@@ -180,3 +190,24 @@ def test_the_command_writes_the_description(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         model_command.main(["--config", str(tmp_path / "missing.toml")])
     assert e.value.code == 1
+
+
+@needs_rerun
+def test_rerun_loads_the_urdf(tmp_path):
+    """rerun's URDF loader reads every link and joint, the links' cylinders and the LEDs'
+    spheres."""
+    urdf = tmp_path / "softarm.urdf"
+    urdf.write_text(trn_softarm.arm_model("realistic", "urdf"))
+    rec = rerun.RecordingStream("trn_softarm_urdf_test")
+    rec.save(str(tmp_path / "arm.rrd"))
+    rec.log_file_from_path(urdf, static=True)
+    rec.flush()
+    rec.disconnect()
+    columns = [(str(c.entity_path), str(c.component)) for c in load_recording(str(tmp_path / "arm.rrd")).schema().component_columns()]
+    leaves = {e.rsplit("/", 1)[-1] for e, _ in columns}
+    for name in ["base_link", "turntable", "upper_arm", "forearm", "wrist", "hand", *FRAMES[3:], *JOINTS]:
+        assert name in leaves, (name, sorted(leaves))
+    for link in ["light_p", "light_q"]:
+        assert any(e.endswith(f"/{link}/visual_0") and "Ellipsoids3D" in c for e, c in columns), link
+    cylinders = {e.split("/")[-2] for e, c in columns if "Cylinders3D" in c}
+    assert cylinders == {"turntable", "upper_arm", "forearm", "hand"}, cylinders

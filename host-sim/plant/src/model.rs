@@ -65,7 +65,7 @@ pub fn chain(cfg: &SimConfig) -> Vec<ChainJoint> {
         })
     };
     let (a, b) = (range(3), range(4));
-    let y_down = Some([0.0, -1.0, 0.0]);
+    let y_down = [0.0, -1.0, 0.0];
     let fixed = |name, parent, origin_m| ChainJoint {
         name,
         parent,
@@ -74,47 +74,49 @@ pub fn chain(cfg: &SimConfig) -> Vec<ChainJoint> {
         axis: None,
         limits_rad: (0.0, 0.0),
     };
+    let revolute = |name, parent, child, origin_m, axis, limits_rad| ChainJoint {
+        name,
+        parent,
+        child,
+        origin_m,
+        axis: Some(axis),
+        limits_rad,
+    };
+    let (x, z) = ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
     vec![
-        ChainJoint {
-            name: "base",
-            parent: "base_link",
-            child: "turntable",
-            origin_m: [0.0; 3],
-            axis: Some([0.0, 0.0, 1.0]),
-            limits_rad: range(0),
-        },
-        ChainJoint {
-            name: "shoulder",
-            parent: "turntable",
-            child: "upper_arm",
-            origin_m: [0.0, 0.0, mm(cfg.shoulder_height_mm)],
-            axis: y_down,
-            limits_rad: range(1),
-        },
-        ChainJoint {
-            name: "elbow",
-            parent: "upper_arm",
-            child: "forearm",
-            origin_m: [mm(cfg.upper_arm_mm), 0.0, 0.0],
-            axis: y_down,
-            limits_rad: range(2),
-        },
-        ChainJoint {
-            name: "wrist_pitch",
-            parent: "forearm",
-            child: "wrist",
-            origin_m: [mm(cfg.forearm_mm), 0.0, 0.0],
-            axis: y_down,
-            limits_rad: (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1)),
-        },
-        ChainJoint {
-            name: "wrist_roll",
-            parent: "wrist",
-            child: "hand",
-            origin_m: [0.0; 3],
-            axis: Some([1.0, 0.0, 0.0]),
-            limits_rad: (0.5 * (a.0 - b.1), 0.5 * (a.1 - b.0)),
-        },
+        revolute("base", "base_link", "turntable", [0.0; 3], z, range(0)),
+        revolute(
+            "shoulder",
+            "turntable",
+            "upper_arm",
+            [0.0, 0.0, mm(cfg.shoulder_height_mm)],
+            y_down,
+            range(1),
+        ),
+        revolute(
+            "elbow",
+            "upper_arm",
+            "forearm",
+            [mm(cfg.upper_arm_mm), 0.0, 0.0],
+            y_down,
+            range(2),
+        ),
+        revolute(
+            "wrist_pitch",
+            "forearm",
+            "wrist",
+            [mm(cfg.forearm_mm), 0.0, 0.0],
+            y_down,
+            (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1)),
+        ),
+        revolute(
+            "wrist_roll",
+            "wrist",
+            "hand",
+            [0.0; 3],
+            x,
+            (0.5 * (a.0 - b.1), 0.5 * (a.1 - b.0)),
+        ),
         fixed("gripper_centre", "hand", [mm(cfg.hand_mm), 0.0, 0.0]),
         fixed(
             "light_p",
