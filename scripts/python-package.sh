@@ -8,7 +8,9 @@
 # controllers from Python, the decoder on a training's candump log (0 undecoded), and a
 # rerun recording of a training (`trn train --rerun-save`) read back with rerun's own
 # reader; then pytest python/tests (check_env on the registered id, the native vector env,
-# a pickle round trip, termination, the options).
+# a pickle round trip, termination, the options, the arm's URDF and MJCF read by MuJoCo's
+# loaders against the plant's kinematics; MuJoCo is installed for it, about 90 MB with its
+# OpenGL bindings).
 # Prints each part's time; the venvs (about 0.5 GB with rerun-sdk) are removed at the end.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -29,7 +31,7 @@ bare=(env "PATH=$venv/bin")
 "${bare[@]}" python -c 'import shutil, sys; sys.exit(shutil.which("cargo") or shutil.which("rustc"))'
 pip=("${bare[@]}" pip install --quiet --disable-pip-version-check)
 "${pip[@]}" "$wheel" gymnasium
-"${pip[@]}" "$wheel[live]" pytest
+"${pip[@]}" "$wheel[live]" pytest 'mujoco>=3.2,<5'
 t_install=$((SECONDS - t0 - t_wheel))
 trials=15
 cargo build --quiet --release --bin trn
@@ -43,8 +45,9 @@ grep -q ', 0 undecoded$' "$work/decode.txt"
 (cd "$work" && "${bare[@]}" python "$root/python/tests/check_package.py" \
     --log "$work/train.log" --recording "$work/train.rrd" --trials "$trials")
 # the environment's own tests (check_env on the registered id, pickling, termination, the
-# native vector env against SyncVectorEnv, the options); SB3's test is skipped without it
+# native vector env against SyncVectorEnv, the options, the URDF and MJCF against the plant's
+# kinematics with MuJoCo); SB3's test is skipped without it
 (cd "$work" && "${bare[@]}" python -m pytest -q -p no:cacheprovider "$root/python/tests")
 disk=$(du -sm "$venv" | cut -f1)
-echo "python package: the wheel ${t_wheel} s, installed with gymnasium, rerun-sdk, pytest ${t_install} s," \
+echo "python package: the wheel ${t_wheel} s, installed with gymnasium, rerun-sdk, pytest, mujoco ${t_install} s," \
     "all $((SECONDS - t0)) s; venv ${disk} MB"

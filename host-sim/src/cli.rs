@@ -55,6 +55,12 @@ pub enum Cmd {
     /// message it carries, the segments of segmented messages included, then a line
     /// `N frames, M messages, K undecoded`.
     Decode(DecodeArgs),
+    /// The arm's robot description from a simulator configuration on standard output: URDF
+    /// (metres, radians; the gripper centre and the LEDs p and q as fixed frames), or
+    /// MuJoCo's MJCF with `--mjcf` (with the two cameras). The differential wrist's joints A
+    /// and B appear as the gripper's own axes, wrist_pitch = (A + B) / 2 and
+    /// wrist_roll = (A - B) / 2.
+    Model(ModelArgs),
 }
 
 /// Options of every command that runs a study of many runs.
@@ -176,6 +182,18 @@ pub struct DecodeArgs {
     /// Print only the counts.
     #[arg(long)]
     pub summary: bool,
+}
+
+/// `trn model`.
+#[derive(Debug, Args, Clone)]
+pub struct ModelArgs {
+    /// Simulator configuration: a TOML file, or a built-in one by name (`realistic`, the
+    /// default, `ideal`, `aging`, `realistic-aging`).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// MuJoCo's MJCF instead of URDF.
+    #[arg(long)]
+    pub mjcf: bool,
 }
 
 /// `trn lifelong`.
@@ -491,7 +509,7 @@ mod tests {
     #[test]
     fn config_help_lists_every_named_plant() {
         let mut cli = Cli::command();
-        for sub in ["train", "lifelong", "compare"] {
+        for sub in ["train", "lifelong", "compare", "model"] {
             let help = cli
                 .find_subcommand_mut(sub)
                 .unwrap()

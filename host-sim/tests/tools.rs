@@ -227,3 +227,32 @@ fn study_results_carry_their_provenance() {
         assert!(json["results"].as_array().is_some_and(|r| !r.is_empty()));
     }
 }
+
+#[test]
+fn trn_model_writes_the_arms_description() {
+    let trn = env!("CARGO_BIN_EXE_trn");
+    let cfg = trn_plant::SimConfig::ideal();
+    let urdf = stdout(&run(trn, &["model", "--config", "ideal"]));
+    assert_eq!(urdf, trn_plant::model::urdf(&cfg));
+    assert!(urdf.contains("<link name=\"light_p\">"));
+    let mjcf = stdout(&run(trn, &["model", "--config", "ideal", "--mjcf"]));
+    assert_eq!(mjcf, trn_plant::model::mjcf(&cfg));
+    // a file: the lengths are its own
+    let file = tmp("short-arm.toml");
+    let sim_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/plant/sim.toml");
+    let text = std::fs::read_to_string(sim_toml).unwrap();
+    assert!(text.contains("\nupper_arm_mm = 420.0\n"));
+    std::fs::write(
+        &file,
+        text.replace("\nupper_arm_mm = 420.0\n", "\nupper_arm_mm = 300.0\n"),
+    )
+    .unwrap();
+    let short = trn_plant::SimConfig::load(&file).unwrap();
+    assert_eq!(short.upper_arm_mm, 300.0);
+    let from_file = stdout(&run(trn, &["model", "--config", file.to_str().unwrap()]));
+    assert_eq!(from_file, trn_plant::model::urdf(&short));
+    assert_ne!(from_file, urdf);
+    let missing = run(trn, &["model", "--config", "no-such-plant.toml"]);
+    assert_eq!(missing.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("no-such-plant.toml"));
+}

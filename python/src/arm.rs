@@ -317,7 +317,8 @@ fn value_err(e: String) -> PyErr {
     PyValueError::new_err(e)
 }
 
-fn resolve(config: &str) -> PyResult<SimConfig> {
+/// A named plant or a TOML file, as `--config` takes them.
+pub(crate) fn resolve(config: &str) -> PyResult<SimConfig> {
     SimConfig::resolve(Some(std::path::Path::new(config)))
         .map_err(|e| PyValueError::new_err(e.to_string()))
 }

@@ -5,6 +5,7 @@
 //!   pictures of both cameras ([`render`]).
 //! - [`control::Ctrl`]: the TRN or the Broyden servo on plain lists of floats: a task in,
 //!   pressures out, observations in.
+//! - [`model`]: the arm as URDF or MJCF, and the plant's forward kinematics to check it by.
 //! - [`decode`]: frames and candump logs as the protocol's messages, by the receivers' own
 //!   decoder.
 //!
@@ -17,6 +18,7 @@ mod arm;
 mod control;
 mod decode;
 mod fields;
+mod model;
 mod render;
 
 /// The module `trn_softarm._native`.
@@ -30,5 +32,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(decode::decode_frames, m)?)?;
     m.add_function(wrap_pyfunction!(decode::decode_candump, m)?)?;
     m.add_function(wrap_pyfunction!(arm::config_json, m)?)?;
+    m.add_function(wrap_pyfunction!(model::arm_model, m)?)?;
+    m.add_function(wrap_pyfunction!(model::arm_frames, m)?)?;
     Ok(())
 }

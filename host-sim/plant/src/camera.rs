@@ -53,6 +53,12 @@ impl Camera {
         self.pos
     }
 
+    /// The image's x (right) and y (down) directions in the base frame (unit vectors; the
+    /// optical axis is right x down).
+    pub fn image_axes(&self) -> (V3, V3) {
+        (self.right, self.down)
+    }
+
     /// The direction (unit, base frame) of the pinhole ray through pixel `(u, v)`, lens
     /// distortion ignored: a starting point for [`super::stereo::reprojection_error`].
     pub fn ray(&self, u: f64, v: f64) -> V3 {

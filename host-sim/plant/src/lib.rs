@@ -16,6 +16,7 @@ mod grasp;
 pub mod joint;
 pub mod kinematics;
 pub mod markers;
+pub mod model;
 pub mod nodes;
 pub mod pixels;
 pub mod random;

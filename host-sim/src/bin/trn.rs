@@ -85,6 +85,7 @@ fn main() -> ExitCode {
             .spec(Command::Conformance, 0)
             .map_err(CliError::from)
             .and_then(|s| run_one(s, &a.common, &interrupts, false)),
+        Cmd::Model(a) => model(a),
         Cmd::Decode(a) => {
             trn_sim::decode::decode(&a.log, a.summary, &mut std::io::stdout().lock()).map(drop)
         }
@@ -131,6 +132,21 @@ fn main() -> ExitCode {
             ExitCode::from(e.exit_code())
         }
     }
+}
+
+/// `trn model`: the arm's URDF or MJCF on standard output.
+fn model(a: &trn_sim::cli::ModelArgs) -> Result<()> {
+    use std::io::Write;
+    let cfg = trn_plant::SimConfig::resolve(a.config.as_deref().map(std::path::Path::new))?;
+    let text = if a.mjcf {
+        trn_plant::model::mjcf(&cfg)
+    } else {
+        trn_plant::model::urdf(&cfg)
+    };
+    std::io::stdout()
+        .lock()
+        .write_all(text.as_bytes())
+        .map_err(|e| CliError::from(trn_bench::io(std::path::Path::new("standard output"))(e)))
 }
 
 fn lifelong_run(

@@ -7,12 +7,14 @@
   arrays, to compare an agent with.
 - :func:`decode_candump`, :func:`decode_frames`: the CAN protocol's frames and candump logs
   as messages, segmented ones included, through the Rust decoder.
+- :func:`arm_model`: the arm as URDF or MuJoCo's MJCF (``python -m trn_softarm.model``
+  writes it); :func:`arm_frames`: the plant's forward kinematics, to check it by.
 
 The simulation, the controllers and the decoder are the project's Rust crates
 (``trn_softarm._native``); this package adds numpy arrays, Gymnasium and the live view.
 """
 
-from ._native import __version__, config_json
+from ._native import __version__, arm_frames, arm_model, config_json
 from .controllers import Controller, run_episode
 from .protocol import decode_candump, decode_frames
 
@@ -26,6 +28,8 @@ __all__ = [
     "decode_candump",
     "decode_frames",
     "config_json",
+    "arm_model",
+    "arm_frames",
     "register_envs",
 ]
 
