@@ -206,7 +206,12 @@ impl StudyFile {
 
     /// Reads a study file.
     pub fn read(path: &Path) -> Result<StudyFile> {
-        let text = std::fs::read_to_string(path).map_err(io(path))?;
+        let mut text = String::new();
+        std::io::Read::read_to_string(
+            &mut trn_plant::input::open(path).map_err(io(path))?,
+            &mut text,
+        )
+        .map_err(io(path))?;
         StudyFile::parse(&text, &path.display().to_string())
     }
 
