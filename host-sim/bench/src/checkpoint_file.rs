@@ -10,7 +10,6 @@
 //! the configuration the run uses (preset, ablation, every value) unless the caller allows
 //! a change.
 
-use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
