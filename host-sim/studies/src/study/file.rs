@@ -390,6 +390,9 @@ impl StudyFile {
     }
 }
 
+/// What of a configuration must differ from every other's.
+type Label = fn(&Configuration) -> String;
+
 impl StudyFile {
     /// Refuses two configurations with the same name, key or plant file name (their
     /// results would be pooled into one table row, one plant file written for both), naming
@@ -400,7 +403,7 @@ impl StudyFile {
         } else {
             "configurations"
         };
-        let checks: [(&str, fn(&Configuration) -> String); 3] = [
+        let checks: [(&str, Label); 3] = [
             ("name", |c| c.row.name.clone()),
             ("key", |c| c.row.key.clone()),
             ("plant file name", |c| format!("{}.toml", slug(&c.row.name))),
