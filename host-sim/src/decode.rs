@@ -13,7 +13,7 @@ use crate::{CliError, Result};
 /// Decodes `log` and prints every frame to `out` (only the counts when `summary_only`).
 pub fn decode(log: &Path, summary_only: bool, out: &mut impl Write) -> Result<Summary> {
     let io = |e: std::io::Error| CliError::Lab(trn_bench::io(log)(e));
-    let file = std::fs::File::open(log).map_err(io)?;
+    let file = trn_plant::input::open(log).map_err(io)?;
     let mut dec = LogDecoder::new();
     let mut bad_lines = 0usize;
     for (n, line) in BufReader::new(file).lines().enumerate() {

@@ -10,7 +10,6 @@
 //! the configuration the run uses (preset, ablation, every value) unless the caller allows
 //! a change.
 
-use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
@@ -113,7 +112,7 @@ pub fn save_image_with_state(
 /// Reads and verifies a checkpoint file (length, CRC, magic, version, shapes, values):
 /// its bytes and header.
 pub fn read(path: &Path) -> Result<(Vec<u8>, checkpoint::Header)> {
-    let file = File::open(path).map_err(io(path))?;
+    let file = trn_plant::input::open(path).map_err(io(path))?;
     let meta = file.metadata().map_err(io(path))?;
     if !meta.is_file() {
         return Err(Error::Usage(format!(

@@ -117,7 +117,7 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<SimState> {
 /// checkpoint beside it was trained on.
 pub fn read_plant_config(path: &Path) -> Result<SimConfig> {
     let mut bytes = vec![];
-    std::fs::File::open(path)
+    trn_plant::input::open(path)
         .map_err(io(path))?
         .take(MAX_SIZE + 1)
         .read_to_end(&mut bytes)
@@ -134,7 +134,7 @@ pub fn save(state: &SimState, path: &Path) -> Result<()> {
 /// saved with the controller checkpoint whose CRC is `checkpoint_crc`.
 pub fn load(path: &Path, seed: u64, cfg: &SimConfig, checkpoint_crc: u32) -> Result<SimState> {
     let mut bytes = vec![];
-    std::fs::File::open(path)
+    trn_plant::input::open(path)
         .map_err(io(path))?
         .take(MAX_SIZE + 1)
         .read_to_end(&mut bytes)

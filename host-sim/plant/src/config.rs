@@ -461,7 +461,7 @@ impl SimConfig {
     /// Reads, parses and validates a TOML file (at most [`MAX_FILE_BYTES`]).
     pub fn load(path: &Path) -> Result<SimConfig, SimError> {
         let named = |e: String| SimError::Config(format!("{}: {e}", path.display()));
-        let file = std::fs::File::open(path).map_err(|e| named(e.to_string()))?;
+        let file = crate::input::open(path).map_err(|e| named(e.to_string()))?;
         let mut bytes = Vec::new();
         std::io::Read::read_to_end(
             &mut std::io::Read::take(file, MAX_FILE_BYTES + 1),

@@ -13,6 +13,7 @@ pub mod camera;
 pub mod config;
 mod error;
 mod grasp;
+pub mod input;
 pub mod joint;
 pub mod kinematics;
 pub mod markers;

@@ -271,6 +271,66 @@ fn refused(text: &str, over: &Overrides) -> String {
     }
 }
 
+/// Two rows with the same name, key or plant file name are refused naming both (they were
+/// pooled into one table row, one plant file written for both); huge seed counts and grids
+/// are refused before anything is allocated (`seeds.count` at i64::MAX panicked on
+/// capacity, 10^8 aborted on memory); a study name without a letter is refused.
+#[test]
+fn duplicate_rows_and_huge_counts_are_refused_naming_them() {
+    let two = |a: &str, b: &str| {
+        format!(
+            "name = \"t\"\nseeds = [100]\n[[row]]\n{a}\nset = {{ pixel_noise_px = 0.1 }}\n\
+             [[row]]\n{b}\nset = {{ pixel_noise_px = 0.2 }}\n"
+        )
+    };
+    let e = refused(&two("name = \"a\"", "name = \"a\""), &Overrides::default());
+    assert!(
+        e.contains("rows 1 (\"a\") and 2 (\"a\")") && e.contains("same name"),
+        "{e}"
+    );
+    let e = refused(
+        &two("name = \"a\"\nkey = \"k\"", "name = \"b\"\nkey = \"k\""),
+        &Overrides::default(),
+    );
+    assert!(
+        e.contains("rows 1 (\"a\") and 2 (\"b\")") && e.contains("same key \"k\""),
+        "{e}"
+    );
+    let e = refused(
+        &two("name = \"a b\"\nkey = \"x\"", "name = \"a-b\"\nkey = \"y\""),
+        &Overrides::default(),
+    );
+    assert!(e.contains("same plant file name \"a-b.toml\""), "{e}");
+    for count in [i64::MAX as u64, 100_000_000] {
+        let e = refused(
+            &format!("name = \"t\"\nseeds = {{ first = 0, count = {count} }}\n"),
+            &Overrides::default(),
+        );
+        assert!(e.contains("more than a study runs"), "{e}");
+    }
+    let e = refused(
+        "name = \"t\"\nseeds = { first = 100, count = 2 }\n",
+        &Overrides {
+            seeds: Some(1_000_000),
+            ..Overrides::default()
+        },
+    );
+    assert!(e.contains("more than a study runs"), "{e}");
+    let axis = |n: usize| {
+        format!(
+            "[[axis]]\nkey = \"pixel_noise_px\"\nvalues = [{}]\n",
+            vec!["0.1"; n].join(",")
+        )
+    };
+    let e = refused(
+        &format!("name = \"t\"\nseeds = [1]\n{}{}", axis(1000), axis(1000)),
+        &Overrides::default(),
+    );
+    assert!(e.contains("makes 1000000 configurations"), "{e}");
+    let e = refused("name = \"\"\nseeds = [1]\n", &Overrides::default());
+    assert!(e.contains("needs a letter or digit"), "{e}");
+}
+
 /// A bad key, a value out of its range, a value of the wrong type, an unknown setting or
 /// row: refused before anything runs, naming it.
 #[test]

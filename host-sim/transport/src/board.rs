@@ -163,16 +163,22 @@ pub fn memory_store() -> BoardStore {
     FlashStore::new(flash, 0, slot).expect("the store's own layout")
 }
 
-/// The store in the tables file `path`: created erased if it does not exist, refused if it
-/// is not a tables file of this build (its size), or another process holds it.
+/// The store in the tables file `path`: created erased if no file of that name exists,
+/// refused if it is not a regular file (a device, FIFO or socket is never written), not a
+/// tables file of this build (its size; an existing empty file is not a new one), or another
+/// process holds it.
 pub fn file_store(path: &Path) -> Result<BoardStore> {
     let slot = BoardStore::slot_size_needed();
     let len = tables_file_len();
+    match std::fs::metadata(path) {
+        Ok(m) => check_tables_file(path, &m, len)?,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => create_erased(path, len)?,
+        Err(e) => return Err(io(path)(e)),
+    }
+    // never created here: only the file checked above (or made whole by `create_erased`)
     let mut file = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
-        .create(true)
-        .truncate(false)
         .open(path)
         .map_err(io(path))?;
     match file.try_lock() {
@@ -185,29 +191,81 @@ pub fn file_store(path: &Path) -> Result<BoardStore> {
         }
         Err(std::fs::TryLockError::Error(e)) => return Err(io(path)(e)),
     }
-    let found = file.metadata().map_err(io(path))?.len();
-    let mem = if found == 0 {
-        // a new file: erased flash
-        let mem = vec![0xFF; len as usize];
-        file.write_all(&mem).map_err(io(path))?;
-        file.sync_all().map_err(io(path))?;
-        mem
-    } else if found == len {
-        let mut mem = Vec::with_capacity(len as usize);
-        file.read_to_end(&mut mem).map_err(io(path))?;
-        mem
-    } else {
+    // what was opened, should the path have been replaced since the check
+    check_tables_file(path, &file.metadata().map_err(io(path))?, len)?;
+    let mut mem = Vec::with_capacity(len as usize);
+    (&mut file)
+        .take(len + 1)
+        .read_to_end(&mut mem)
+        .map_err(io(path))?;
+    if mem.len() as u64 != len {
         return Err(BoardError::Usage(format!(
-            "tables file {}: {found} bytes, not a tables file of this build ({len} bytes)",
+            "tables file {}: changed while being read",
             path.display()
         )));
-    };
+    }
     let flash = BoardFlash {
         mem: RamFlash::keeping(mem),
         file: Some((file, path.to_path_buf())),
         slot_size: slot,
     };
     Ok(FlashStore::new(flash, 0, slot).expect("the store's own layout"))
+}
+
+/// Refuses an existing `path` that is not a regular tables file of `len` bytes.
+fn check_tables_file(path: &Path, meta: &std::fs::Metadata, len: u64) -> Result<()> {
+    let usage = |what: String| {
+        Err(BoardError::Usage(format!(
+            "tables file {}: {what}",
+            path.display()
+        )))
+    };
+    if !meta.is_file() {
+        return usage(
+            "is not a regular file (a device, FIFO, socket or directory): a tables file is a \
+             regular file, made where none exists"
+                .into(),
+        );
+    }
+    match meta.len() {
+        found if found == len => Ok(()),
+        0 => usage(format!(
+            "is empty, not a tables file ({len} bytes): a new one is made only where no file \
+             exists (remove it or give another path)"
+        )),
+        found => usage(format!(
+            "{found} bytes, not a tables file of this build ({len} bytes): remove it or give \
+             another path"
+        )),
+    }
+}
+
+/// Makes a new tables file at `path`, erased, whole or not at all: written and synced beside
+/// it, then linked into place (if another process made one meanwhile, that one is kept).
+fn create_erased(path: &Path, len: u64) -> Result<()> {
+    let name = path.file_name().ok_or_else(|| {
+        BoardError::Usage(format!("tables file {}: not a file name", path.display()))
+    })?;
+    let tmp = path.with_file_name(format!(
+        ".{}.tmp-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let made = (|| {
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)?;
+        f.write_all(&vec![0xFF; len as usize])?;
+        f.sync_all()?;
+        match std::fs::hard_link(&tmp, path) {
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+            other => other,
+        }
+    })();
+    let _ = std::fs::remove_file(&tmp);
+    made.map_err(io(path))
 }
 
 /// A board as it comes out of reset: the controller configured with `cfg` (zeroed tables,
@@ -418,6 +476,50 @@ mod tests {
         std::fs::write(&path, b"not tables").unwrap();
         let e = boot(cfg, Some(&path)).err().unwrap().to_string();
         assert!(e.contains("not a tables file"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A tables path that is not a regular file (a device, a FIFO) or an existing empty
+    /// file is refused before anything is written: no path is taken for a new file unless
+    /// nothing exists there. Fails if any of them is opened as a tables file (a device's or
+    /// an empty file's length reads 0, which was taken for "new" and written over).
+    #[test]
+    fn a_device_fifo_or_empty_file_is_never_taken_for_a_new_tables_file() {
+        let dir = std::env::temp_dir().join(format!("trn-board-dev-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let refused = |p: &Path, what: &str| match file_store(p) {
+            Err(BoardError::Usage(m)) => assert!(m.contains(what), "{}: {m}", p.display()),
+            other => panic!("{}: {:?}", p.display(), other.map(|_| ())),
+        };
+        refused(Path::new("/dev/null"), "not a regular file");
+        refused(&dir, "not a regular file");
+        #[cfg(unix)]
+        {
+            let fifo = dir.join("fifo.bin");
+            assert!(std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success());
+            refused(&fifo, "not a regular file");
+        }
+        let empty = dir.join("empty.bin");
+        std::fs::write(&empty, b"").unwrap();
+        refused(&empty, "is empty");
+        assert_eq!(std::fs::metadata(&empty).unwrap().len(), 0);
+        // a path where nothing exists is a new file, made whole, with no temporary left
+        let new = dir.join("new.bin");
+        assert!(file_store(&new).is_ok());
+        assert_eq!(std::fs::metadata(&new).unwrap().len(), tables_file_len());
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert!(
+            names.iter().all(|n| !n.to_string_lossy().contains(".tmp-")),
+            "{names:?}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

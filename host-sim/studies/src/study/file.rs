@@ -166,6 +166,10 @@ pub struct Axis {
 }
 
 /// The settings an axis may name besides plant keys.
+/// The most runs a study makes (configurations times seeds): far more than any study runs
+/// in days, few enough that the runs' list fits in memory.
+pub const MAX_RUNS: u64 = 100_000;
+
 const SETTINGS: [&str; 12] = [
     "plant",
     "preset",
@@ -209,7 +213,12 @@ impl StudyFile {
 
     /// Reads a study file.
     pub fn read(path: &Path) -> Result<StudyFile> {
-        let text = std::fs::read_to_string(path).map_err(io(path))?;
+        let mut text = String::new();
+        std::io::Read::read_to_string(
+            &mut trn_plant::input::open(path).map_err(io(path))?,
+            &mut text,
+        )
+        .map_err(io(path))?;
         StudyFile::parse(&text, &path.display().to_string())
     }
 
@@ -228,6 +237,30 @@ impl StudyFile {
             let v = toml::Value::try_from(v).map_err(|e| LabError::Usage(e.to_string()))?;
             base.set.insert("vision".into(), v);
         }
+        if slug(&self.name).is_empty() {
+            return Err(LabError::Usage(format!(
+                "study name {:?}: a study's name needs a letter or digit (it names the run \
+                 folder and the files)",
+                self.name
+            )));
+        }
+        let configs = self.configurations(over)?;
+        // counted before any seed or run is made: a huge count is refused, not allocated
+        let seed_count = match (&self.seeds, over.seeds) {
+            (Seeds::Range { .. }, Some(n)) => n,
+            (Seeds::List(l), Some(n)) => n.min(l.len() as u64),
+            (Seeds::Range { count, .. }, None) => *count,
+            (Seeds::List(l), None) => l.len() as u64,
+        };
+        let run_count = seed_count.saturating_mul(configs.len() as u64);
+        if run_count > MAX_RUNS {
+            return Err(LabError::Usage(format!(
+                "study {}: {} configurations x {seed_count} seeds is {run_count} runs, more \
+                 than a study runs ({MAX_RUNS} at most): fewer seeds or configurations",
+                self.name,
+                configs.len()
+            )));
+        }
         let seeds = match (&self.seeds, over.seeds) {
             (Seeds::Range { first, .. }, Some(n)) => Seeds::Range {
                 first: *first,
@@ -238,7 +271,7 @@ impl StudyFile {
             (s, None) => s.list(),
         };
         let mut runs = vec![];
-        for c in self.configurations(over)? {
+        for c in configs {
             let mut layers = vec![&base];
             layers.extend(c.layers.iter());
             let (mut spec, changed) = resolve(&layers, dir).map_err(|e| {
@@ -294,6 +327,14 @@ impl StudyFile {
             .collect();
         for axis in &self.axes {
             let label = axis.name.clone().unwrap_or_else(|| axis.key.clone());
+            let grid = (configs.len() as u64).saturating_mul(axis.values.len() as u64);
+            if grid > MAX_RUNS {
+                return Err(LabError::Usage(format!(
+                    "study {}: axis {} makes {grid} configurations, more than a study runs \
+                     ({MAX_RUNS} runs at most)",
+                    self.name, axis.key
+                )));
+            }
             let mut next = vec![];
             for c in &configs {
                 for v in &axis.values {
@@ -324,10 +365,18 @@ impl StudyFile {
                 c.row.key = slug(&self.name);
             }
         }
+        self.distinct(&configs)?;
         if over.configs.is_empty() {
             return Ok(configs);
         }
-        let rows: Vec<&str> = self.rows.iter().filter_map(|r| r.key.as_deref()).collect();
+        let mut rows: Vec<&str> = configs
+            .iter()
+            .map(|c| c.row.key.as_str())
+            .take(20)
+            .collect();
+        if configs.len() > rows.len() {
+            rows.push("...");
+        }
         if let Some(bad) = over.configs.iter().find(|k| {
             !configs
                 .iter()
@@ -345,6 +394,45 @@ impl StudyFile {
                 .any(|k| &c.row.key == k || c.layers[0].key.as_deref() == Some(k.as_str()))
         });
         Ok(configs)
+    }
+}
+
+/// What of a configuration must differ from every other's.
+type Label = fn(&Configuration) -> String;
+
+impl StudyFile {
+    /// Refuses two configurations with the same name, key or plant file name (their
+    /// results would be pooled into one table row, one plant file written for both), naming
+    /// both (rows by number, or grid configurations by number when the study has axes).
+    fn distinct(&self, configs: &[Configuration]) -> Result<()> {
+        let what = if self.axes.is_empty() {
+            "rows"
+        } else {
+            "configurations"
+        };
+        let checks: [(&str, Label); 3] = [
+            ("name", |c| c.row.name.clone()),
+            ("key", |c| c.row.key.clone()),
+            ("plant file name", |c| format!("{}.toml", slug(&c.row.name))),
+        ];
+        for (label, of) in checks {
+            let mut seen = std::collections::HashMap::new();
+            for (i, c) in configs.iter().enumerate() {
+                if let Some(first) = seen.insert(of(c), i) {
+                    return Err(LabError::Usage(format!(
+                        "study {}: {what} {} ({:?}) and {} ({:?}) have the same {label} {:?}: \
+                         give each its own",
+                        self.name,
+                        first + 1,
+                        configs[first].row.name,
+                        i + 1,
+                        c.row.name,
+                        of(c)
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 }
 

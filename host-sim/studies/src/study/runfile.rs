@@ -86,7 +86,7 @@ impl RunFile {
     /// Reads a run file (at most 256 MiB).
     pub fn read(path: &Path) -> Result<RunFile> {
         use std::io::Read;
-        let file = std::fs::File::open(path).map_err(io(path))?;
+        let file = trn_plant::input::open(path).map_err(io(path))?;
         let mut bytes = Vec::new();
         file.take(MAX_BYTES + 1)
             .read_to_end(&mut bytes)
