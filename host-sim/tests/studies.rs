@@ -132,6 +132,30 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
         !out.status.success() && err.contains("have no file (runs 0, 2)"),
         "{err}"
     );
+    // a run file whose header claims another number of runs (the study's digest kept) is
+    // refused, naming both counts, never an index out of bounds
+    let forged = dir.join("forged");
+    std::fs::create_dir_all(&forged).unwrap();
+    let mut runs: Vec<PathBuf> = std::fs::read_dir(dir.join("shards"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|f| f.extension().is_some_and(|e| e == "json"))
+        .collect();
+    runs.sort();
+    for (i, f) in runs.iter().enumerate() {
+        let mut v = json(f);
+        if i == runs.len() - 1 {
+            v["study"]["runs"] = 100.into();
+            v["index"] = 50.into();
+        }
+        std::fs::write(forged.join(f.file_name().unwrap()), v.to_string()).unwrap();
+    }
+    let out = trn(&["merge", s(&forged)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("disagree on its number of runs (4 and 100)"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -74,6 +74,13 @@ impl RunFile {
         if file.report.spec.is_none() {
             return Err(bad("its report has no run specification".into()));
         }
+        if file.study.runs as u64 > super::file::MAX_RUNS {
+            return Err(bad(format!(
+                "a study of {} runs (a study runs {} at most)",
+                file.study.runs,
+                super::file::MAX_RUNS
+            )));
+        }
         if file.index >= file.study.runs {
             return Err(bad(format!(
                 "run {} of a study of {}",
@@ -141,7 +148,19 @@ pub fn complete(files: Vec<RunFile>) -> Result<Vec<RunFile>> {
                 header.name, header.digest, f.study.name, f.study.digest
             )));
         }
-        let slot = &mut slots[f.index];
+        if f.study.runs != header.runs {
+            return Err(LabError::Usage(format!(
+                "run files of study {} disagree on its number of runs ({} and {}): \
+                 merge the files of one study",
+                header.name, header.runs, f.study.runs
+            )));
+        }
+        let Some(slot) = slots.get_mut(f.index) else {
+            return Err(LabError::Usage(format!(
+                "run {} of study {}, which has {} runs",
+                f.index, header.name, header.runs
+            )));
+        };
         match slot {
             Some(had) if had.report.spec != f.report.spec => {
                 return Err(LabError::Usage(format!(
