@@ -235,7 +235,22 @@ pub fn merge(paths: &[PathBuf], json: Option<&Path>) -> Result<Finished> {
     if let Some(p) = json {
         trn_bench::output::check_path(p, trn_bench::output::Kind::Json)?;
     }
-    let files = trn_studies::study::runfile::expand(paths)?
+    let inputs = trn_studies::study::runfile::expand(paths)?;
+    // the report must not be one of the run files it is made from (it would replace a run)
+    if let Some(out) = json.and_then(|p| std::fs::canonicalize(p).ok()) {
+        if let Some(same) = inputs
+            .iter()
+            .find(|f| std::fs::canonicalize(f).is_ok_and(|f| f == out))
+        {
+            return Err(LabError::Usage(format!(
+                "--report {} is one of the run files merged ({}): write the report elsewhere",
+                out.display(),
+                same.display()
+            ))
+            .into());
+        }
+    }
+    let files = inputs
         .iter()
         .map(|p| RunFile::read(p))
         .collect::<std::result::Result<Vec<_>, _>>()?;

@@ -156,6 +156,15 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
         !out.status.success() && err.contains("disagree on its number of runs (4 and 100)"),
         "{err}"
     );
+    // the report may not be one of the run files merged: refused, the run file untouched
+    let before = std::fs::read(&runs[0]).unwrap();
+    let out = trn(&["merge", s(&dir.join("shards")), "--report", s(&runs[0])]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("is one of the run files merged"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&runs[0]).unwrap(), before);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
