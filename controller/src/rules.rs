@@ -44,11 +44,18 @@ impl<const K: usize> Falloff<K> {
 
     /// `exp(-r / range)` for `r = 0..K` (`libm::expf`, bit for bit; see `exp_nonpositive`).
     pub fn compute(range: f32) -> Self {
-        let mut value = [0.0; K];
-        for (r, v) in value.iter_mut().enumerate() {
+        let mut table = Self::zero();
+        table.fill(range);
+        table
+    }
+
+    /// [`Falloff::compute`] in place: the table a stage holds is rewritten where it is, with
+    /// no second table on the stack (512 bytes at `K = 128`, on the compact build's deepest
+    /// call chain: a session's configuration preparing both stages).
+    pub fn fill(&mut self, range: f32) {
+        for (r, v) in self.value.iter_mut().enumerate() {
             *v = exp_nonpositive(-(r as f32) / range);
         }
-        Falloff { value }
     }
 
     /// `exp(-r / range)` for `r = 0..K` as products `exp(-16 i / range) exp(-j / range)`
@@ -60,13 +67,19 @@ impl<const K: usize> Falloff<K> {
     /// as it: about 1e-6 relative either way, from rounding `r / range`
     /// (`tests::block_products_are_as_close_as_the_direct_exponentials`).
     pub fn compute_by_blocks(range: f32) -> Self {
+        let mut table = Self::zero();
+        table.fill_by_blocks(range);
+        table
+    }
+
+    /// [`Falloff::compute_by_blocks`] in place (see [`Falloff::fill`]).
+    pub fn fill_by_blocks(&mut self, range: f32) {
         const BLOCK: usize = 16;
         let mut low = [0.0f32; BLOCK];
         for (j, v) in low.iter_mut().enumerate() {
             *v = exp_nonpositive(-(j as f32) / range);
         }
-        let mut value = [0.0; K];
-        for (i, block) in value.chunks_mut(BLOCK).enumerate() {
+        for (i, block) in self.value.chunks_mut(BLOCK).enumerate() {
             let high = if i == 0 {
                 1.0
             } else {
@@ -76,7 +89,6 @@ impl<const K: usize> Falloff<K> {
                 *v = high * l;
             }
         }
-        Falloff { value }
     }
 
     /// Sum of the first `n` values (`n` is capped at `K`).
@@ -789,6 +801,38 @@ mod tests {
             "{worst_blocks} vs {worst_exact}"
         );
         assert!(worst_exact < 2e-6, "{worst_exact}");
+    }
+
+    /// A table rewritten in place holds every value a new table would, whatever it held
+    /// before (also where `K` is not a multiple of the 16-rank blocks).
+    #[test]
+    fn tables_filled_in_place_equal_new_ones() {
+        fn check<const K: usize>(range: f32) {
+            let mut t = Falloff::<K> {
+                value: [f32::NAN; K],
+            };
+            t.fill(range);
+            assert!(t
+                .value
+                .iter()
+                .zip(Falloff::<K>::compute(range).value)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            let mut t = Falloff::<K> { value: [7.0; K] };
+            t.fill_by_blocks(range);
+            let new = Falloff::<K>::compute_by_blocks(range);
+            assert!(t
+                .value
+                .iter()
+                .zip(new.value)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(t
+                .value
+                .iter()
+                .all(|v| v.is_finite() && *v > 0.0 && *v <= 1.0));
+        }
+        check::<128>(5.0);
+        check::<40>(2.5);
+        check::<1>(10.0);
     }
 
     /// The fused start of a trial against the three functions one after the other, bit for

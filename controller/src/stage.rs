@@ -102,7 +102,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
 
     /// Recomputes the rank tables from the configuration.
     pub(crate) fn prepare(&mut self) {
-        self.alpha = Falloff::compute(self.cfg.alpha_range);
+        self.alpha.fill(self.cfg.alpha_range);
         // a new configuration may compute the table the other way: no cached range
         self.neighbour_range = f32::NAN;
         self.set_neighbour(self.cfg.sigma);
@@ -118,11 +118,11 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         if sigma.to_bits() == self.neighbour_range.to_bits() {
             return;
         }
-        self.neighbour = if self.cfg.sigma_start == self.cfg.sigma {
-            Falloff::compute(sigma)
+        if self.cfg.sigma_start == self.cfg.sigma {
+            self.neighbour.fill(sigma);
         } else {
-            Falloff::compute_by_blocks(sigma)
-        };
+            self.neighbour.fill_by_blocks(sigma);
+        }
         self.neighbour_range = sigma;
     }
 

@@ -312,6 +312,15 @@ fn the_specifications_image_vector_is_what_the_code_verifies_restores_and_saves(
         (300, 20_000, 0xB50E_EF13)
     );
     let mut c = Box::new(Controller::new(cfg));
+    if cfg!(feature = "compact") {
+        // the compact build's i16 tables span a narrower range than the vector's values (-8 to
+        // 7.94 in every entry): it refuses the image whole rather than clip it
+        assert!(matches!(
+            checkpoint::restore(&mut c, &image),
+            Err(Error::CheckpointContents)
+        ));
+        return;
+    }
     checkpoint::restore(&mut c, &image).unwrap();
     assert!(values(&c) == vector);
     assert!(saved(&c, Provenance::of(Preset::Project, Ablation::None)) == image);

@@ -572,12 +572,33 @@ impl Config {
             law_code,
             &self.broyden,
         );
-        let mut buf = [0u8; 512];
-        match postcard::to_slice(&fields, &mut buf) {
-            Ok(bytes) => crate::crc::crc32(bytes),
-            // cannot happen: the encoding is about 200 bytes
-            Err(_) => 0,
-        }
+        // the encoding (297 bytes) digested as postcard writes it, with no buffer on the stack
+        // (the compact build's CAN node computes it in its deepest session path)
+        // (digesting never fails: no error to map)
+        postcard::serialize_with_flavor(&fields, CrcDigest(crate::crc::CRC.digest()))
+            .unwrap_or_default()
+    }
+}
+
+/// A postcard output that is the CRC-32 of the bytes written to it (SPEC.md 3.2.1): the
+/// same value as the CRC of the encoding in a buffer.
+struct CrcDigest(crc::Digest<'static, u32>);
+
+impl postcard::ser_flavors::Flavor for CrcDigest {
+    type Output = u32;
+
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        self.0.update(&[data]);
+        Ok(())
+    }
+
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.0.update(data);
+        Ok(())
+    }
+
+    fn finalize(self) -> postcard::Result<u32> {
+        Ok(self.0.finalize())
     }
 }
 
