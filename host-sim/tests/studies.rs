@@ -7,6 +7,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
+use trn_studies::study::runfile;
 
 fn trn(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_trn"))
@@ -148,12 +149,36 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
             v["study"]["runs"] = 100.into();
             v["index"] = 50.into();
         }
-        std::fs::write(forged.join(f.file_name().unwrap()), v.to_string()).unwrap();
+        // sealed as trn seals a run file: a forgery with a valid checksum
+        let sealed = runfile::seal(&serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+        std::fs::write(forged.join(f.file_name().unwrap()), sealed).unwrap();
     }
     let out = trn(&["merge", s(&forged)]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success() && err.contains("disagree on its number of runs (4 and 100)"),
+        "{err}"
+    );
+    // one digit of a result changed (the checksum left as written) is refused, naming the
+    // file, where it was once merged as true
+    let damaged = dir.join("damaged");
+    std::fs::create_dir_all(&damaged).unwrap();
+    for f in &runs {
+        std::fs::copy(f, damaged.join(f.file_name().unwrap())).unwrap();
+    }
+    let victim = damaged.join(runs[1].file_name().unwrap());
+    let text = std::fs::read_to_string(&victim).unwrap();
+    let at = text.find("\"seed\": ").unwrap() + "\"seed\": ".len();
+    let digit = text.as_bytes()[at];
+    let mut bytes = text.into_bytes();
+    bytes[at] = if digit == b'9' { b'8' } else { digit + 1 };
+    std::fs::write(&victim, bytes).unwrap();
+    let out = trn(&["merge", s(&damaged)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains(&*victim.file_name().unwrap().to_string_lossy())
+            && err.contains("checksum"),
         "{err}"
     );
     // the report may not be one of the run files merged: refused, the run file untouched

@@ -201,7 +201,8 @@ impl Watch for StopAfter {
 }
 
 /// A study interrupted after 4 of its 8 runs keeps them; resumed, it runs only what is
-/// missing, redoes a file cut short and a file holding another specification, and makes
+/// missing, redoes a file cut short, a file holding another specification and a file whose
+/// checksum does not match, and makes
 /// the table of a study that was never interrupted.
 #[test]
 fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
@@ -222,7 +223,19 @@ fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
     std::fs::write(path(0), &whole[..whole.len() / 2]).unwrap();
     let mut other: Value = serde_json::from_slice(&std::fs::read(path(2)).unwrap()).unwrap();
     other["report"]["spec"]["plan"]["grasps"] = Value::from(9);
-    std::fs::write(path(2), serde_json::to_vec(&other).unwrap()).unwrap();
+    let sealed = runfile::seal(&serde_json::to_vec_pretty(&other).unwrap()).unwrap();
+    std::fs::write(path(2), sealed).unwrap();
+    // run 3's file with one digit of its report changed and its checksum as written (one
+    // flipped bit on a disk or a copy): once taken as true
+    let text = std::fs::read_to_string(path(3)).unwrap();
+    let at = text.find("\"seed\": ").unwrap() + "\"seed\": ".len();
+    let mut bytes = text.into_bytes();
+    bytes[at] = if bytes[at] == b'9' {
+        b'8'
+    } else {
+        bytes[at] + 1
+    };
+    std::fs::write(path(3), bytes).unwrap();
 
     let watch = StopAfter::new(usize::MAX);
     let resumed = study::run(
@@ -237,7 +250,7 @@ fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
     .unwrap();
     assert_eq!(
         (resumed.resumed, resumed.ran),
-        (2, 6),
+        (1, 7),
         "{:?}",
         watch.notes.lock().unwrap()
     );
@@ -248,7 +261,9 @@ fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
     );
     let notes = watch.notes.lock().unwrap().join("\n");
     assert!(
-        notes.contains("unreadable") && notes.contains("another run specification"),
+        notes.contains("unreadable")
+            && notes.contains("another run specification")
+            && notes.contains("checksum"),
         "{notes}"
     );
 

@@ -2,6 +2,12 @@
 //! its whole report (with the run's specification in it). Written whole or not at all
 //! ([`trn_bench::fsio::write_durably`]) the moment the run ends; read back to resume a study
 //! and to merge the shards of one.
+//!
+//! A run file is checksummed: its first line inside the object is `"checksum": "HEX"`, the
+//! CRC-64/XZ ([`super::digest`]) of the file without that line, as 16 lowercase hex digits
+//! ([`seal`]). A file whose checksum is missing or does not match (a flipped bit, an edit, a
+//! file of an older `trn`) is refused as it is read: `--resume` runs it again, `trn merge`
+//! stops naming it.
 
 use std::path::{Path, PathBuf};
 
@@ -12,7 +18,10 @@ use trn_bench::report::Report;
 use trn_bench::{io, LabError, Result};
 
 /// The format tag of a run file.
-pub const FORMAT: &str = "trn-study-run/1";
+pub const FORMAT: &str = "trn-study-run/2";
+
+/// The start of a run file: the object's opening line, then its checksum's key.
+const CHECKSUM_LINE: &str = "{\n  \"checksum\": \"";
 
 /// The largest run file read (a report of a 10,000-trial run is about 2 MB).
 const MAX_BYTES: u64 = 256 << 20;
@@ -52,9 +61,11 @@ impl RunFile {
             && self.study.build == super::BUILD
     }
 
-    /// Its JSON.
+    /// Its JSON, sealed with its checksum ([`seal`]).
     pub fn to_json(&self) -> Result<Vec<u8>> {
-        serde_json::to_vec_pretty(self).map_err(|e| LabError::Usage(format!("run file: {e}")))
+        let body = serde_json::to_vec_pretty(self)
+            .map_err(|e| LabError::Usage(format!("run file: {e}")))?;
+        seal(&body)
     }
 
     /// Parses a run file; `what` names it in the error.
@@ -65,8 +76,9 @@ impl RunFile {
                 what.display()
             ))
         };
+        let body = unseal(bytes).map_err(bad)?;
         let value: serde_json::Value =
-            serde_json::from_slice(bytes).map_err(|e| bad(e.to_string()))?;
+            serde_json::from_slice(&body).map_err(|e| bad(e.to_string()))?;
         if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
             return Err(bad(format!("no \"format\": \"{FORMAT}\"")));
         }
@@ -106,6 +118,52 @@ impl RunFile {
         }
         RunFile::parse(&bytes, path)
     }
+}
+
+/// A run file's bytes from the pretty-printed JSON object `body` (which opens with `{` and a
+/// newline): `body` with the line `  "checksum": "HEX",` after its opening line, HEX the
+/// CRC-64/XZ of `body` itself.
+pub fn seal(body: &[u8]) -> Result<Vec<u8>> {
+    let Some(rest) = body.strip_prefix(b"{\n") else {
+        return Err(LabError::Usage(
+            "run file: not a pretty-printed JSON object".into(),
+        ));
+    };
+    let mut out = Vec::with_capacity(body.len() + 40);
+    out.extend_from_slice(CHECKSUM_LINE.as_bytes());
+    out.extend_from_slice(checksum(body).as_bytes());
+    out.extend_from_slice(b"\",\n");
+    out.extend_from_slice(rest);
+    Ok(out)
+}
+
+/// The JSON a sealed run file holds, its checksum line removed, if the checksum matches.
+fn unseal(bytes: &[u8]) -> core::result::Result<Vec<u8>, String> {
+    let unsealed =
+        "no checksum on its first line (a file of an older trn, or edited): run it again";
+    let rest = bytes
+        .strip_prefix(CHECKSUM_LINE.as_bytes())
+        .ok_or_else(|| unsealed.to_string())?;
+    let (stated, rest) = match (rest.get(..16), rest.get(16..)) {
+        (Some(hex), Some(rest)) if rest.starts_with(b"\",\n") => (hex, &rest[3..]),
+        _ => return Err(unsealed.to_string()),
+    };
+    let mut body = Vec::with_capacity(bytes.len());
+    body.extend_from_slice(b"{\n");
+    body.extend_from_slice(rest);
+    let computed = checksum(&body);
+    if stated != computed.as_bytes() {
+        return Err(format!(
+            "its checksum {} is not its contents' ({computed}): the file was changed or damaged; run it again",
+            String::from_utf8_lossy(stated)
+        ));
+    }
+    Ok(body)
+}
+
+fn checksum(bytes: &[u8]) -> String {
+    let crc = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
+    format!("{:016x}", crc.checksum(bytes))
 }
 
 /// The run files among `paths`: each file as it is, each directory's `*.json` files (not
@@ -208,4 +266,51 @@ pub(crate) fn by_row(files: &[RunFile]) -> Vec<Vec<&RunFile>> {
         }
     }
     rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BODY: &[u8] = b"{\n  \"format\": \"trn-study-run/2\",\n  \"index\": 3\n}";
+
+    #[test]
+    fn a_sealed_file_opens_to_what_was_sealed() {
+        let sealed = seal(BODY).unwrap();
+        assert!(sealed.starts_with(b"{\n  \"checksum\": \""));
+        assert_eq!(unseal(&sealed).unwrap(), BODY);
+        // the checksum is the body's own, as the format says
+        let hex = &sealed[CHECKSUM_LINE.len()..CHECKSUM_LINE.len() + 16];
+        assert_eq!(hex, checksum(BODY).as_bytes());
+    }
+
+    #[test]
+    fn any_flipped_bit_is_refused() {
+        let sealed = seal(BODY).unwrap();
+        for byte in 0..sealed.len() {
+            for bit in 0..8 {
+                let mut bad = sealed.clone();
+                bad[byte] ^= 1 << bit;
+                assert!(unseal(&bad).is_err(), "bit {bit} of byte {byte}");
+            }
+        }
+    }
+
+    #[test]
+    fn files_without_their_checksum_are_refused_by_name() {
+        let err = unseal(BODY).unwrap_err();
+        assert!(err.contains("no checksum"), "{err}");
+        let err = RunFile::parse(BODY, Path::new("r.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("r.json") && err.contains("no checksum"),
+            "{err}"
+        );
+        // a truncated checksum line
+        let sealed = seal(BODY).unwrap();
+        assert!(unseal(&sealed[..CHECKSUM_LINE.len() + 10]).is_err());
+        // compact JSON is not a run file's body
+        assert!(seal(b"{\"format\":1}").is_err());
+    }
 }
