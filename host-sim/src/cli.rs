@@ -263,13 +263,16 @@ pub struct ConformanceArgs {
     pub common: Common,
 }
 
-/// A duration in seconds: finite, positive, at most an hour.
+/// The bus's silence timeout in seconds ([`trn_bench::spec::BUS_TIMEOUT_S`]).
 fn seconds(s: &str) -> Result<f64, String> {
     let x: f64 = s.parse().map_err(|e| format!("{e}"))?;
-    if x.is_finite() && x > 0.0 && x <= 3600.0 {
+    if trn_bench::spec::BUS_TIMEOUT_S.contains(&x) {
         Ok(x)
     } else {
-        Err(format!("{s} is not a duration in (0, 3600] seconds"))
+        Err(format!(
+            "{s}: {}",
+            trn_bench::spec::BUS_TIMEOUT_USAGE.trim_start_matches("--bus-timeout-s ")
+        ))
     }
 }
 
@@ -369,7 +372,7 @@ pub struct Common {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
-    /// Seconds without a frame from the controller before the run fails (0 < s <= 3600).
+    /// Seconds without a frame from the controller before the run fails (0.5 <= s <= 3600).
     #[arg(long, default_value_t = 10.0, value_parser = seconds)]
     pub bus_timeout_s: f64,
     /// Use a checkpoint learned under another preset, ablation or configuration.

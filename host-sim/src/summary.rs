@@ -48,14 +48,29 @@ pub fn conformance(r: &Report) -> Result<()> {
     Ok(())
 }
 
+/// What the summary's title calls the controller of a report whose law is `law`.
+fn controller_title(law: &str) -> String {
+    match law {
+        "trn" | "" => "TRN controller".into(),
+        "broyden" => "Broyden servo".into(),
+        "model" => "Calibrated model".into(),
+        "oracle" => "Oracle".into(),
+        other => format!("Controller `{other}`"),
+    }
+}
+
 /// Prints the summary of `r`; with `paper`, the chapter's figures beside the run's. Fails
 /// (after printing) when more than 10 % of the evaluation's trials failed.
 pub fn print(r: &Report, paper: bool) -> Result<()> {
     let w = 100;
     println!();
     println!(
-        "TRN controller on the simulated SoftArm: {} ({} preset, seed {}, bus {})",
-        r.command, r.preset, r.seed, r.bus
+        "{} on the simulated SoftArm: {} ({} preset, seed {}, bus {})",
+        controller_title(&r.law),
+        r.command,
+        r.preset,
+        r.seed,
+        r.bus
     );
     if let Some(line) = protocol_line(r) {
         println!("{line}");
@@ -299,5 +314,25 @@ mod tests {
         // training failures do not count against the evaluation
         r.failures = vec![fail("training"); 10];
         assert!(check_failures(&r).is_ok());
+    }
+
+    /// The title names the controller that ran (a Broyden run was titled "TRN controller").
+    #[test]
+    fn the_title_names_the_controller_that_ran() {
+        let names: Vec<String> = ["trn", "", "broyden", "model", "oracle", "x"]
+            .iter()
+            .map(|l| controller_title(l))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "TRN controller",
+                "TRN controller",
+                "Broyden servo",
+                "Calibrated model",
+                "Oracle",
+                "Controller `x`"
+            ]
+        );
     }
 }

@@ -221,7 +221,7 @@ fn usage_error(out: &Output, needle: &str) {
 
 #[test]
 fn meaningless_numbers_are_usage_errors() {
-    for t in ["-1", "nan", "inf", "1e300", "0"] {
+    for t in ["-1", "nan", "inf", "1e300", "0", "1e-300", "0.49"] {
         let arg = format!("--bus-timeout-s={t}");
         usage_error(&trn(&["train", &arg, "--quiet"]), "--bus-timeout-s");
     }

@@ -453,6 +453,13 @@ impl SimConfig {
             None => Ok(SimConfig::realistic()),
             Some(p) => match p.to_str().and_then(SimConfig::named) {
                 Some(c) if !p.exists() => Ok(c),
+                _ if !p.exists() && p.symlink_metadata().is_err() => {
+                    Err(SimError::Config(format!(
+                        "{}: neither a built-in configuration ({}) nor a file",
+                        p.display(),
+                        SimConfig::NAMES.join(", ")
+                    )))
+                }
                 _ => SimConfig::load(p),
             },
         }

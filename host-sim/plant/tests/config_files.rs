@@ -1,6 +1,7 @@
 //! Configuration files a user gets wrong: each refused with the key or the file named, and a
 //! message of readable length.
 
+use std::path::Path;
 use trn_plant::SimConfig;
 
 fn default_toml() -> String {
@@ -39,5 +40,13 @@ fn huge_and_garbage_files_give_short_errors() {
     let e = SimConfig::load(&garbage).unwrap_err().to_string();
     assert!(e.contains("garbage.toml"), "{e}");
     assert!(e.len() < 1000, "{} characters", e.len());
-    assert!(SimConfig::resolve(Some(&dir.join("none.toml"))).is_err());
+    // a name that is neither a file nor built in lists the built-in names
+    let e = SimConfig::resolve(Some(&dir.join("none.toml")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("none.toml") && e.contains("ideal, realistic, aging, realistic-aging"),
+        "{e}"
+    );
+    assert!(SimConfig::resolve(Some(Path::new("realistic"))).is_ok());
 }

@@ -53,7 +53,16 @@ impl core::str::FromStr for FaultConfig {
             ..FaultConfig::default()
         };
         let mut seen: Vec<&str> = Vec::new();
-        for part in s.split(',').filter(|p| !p.trim().is_empty()) {
+        if s.trim().is_empty() {
+            return Err(
+                "no fault given: drop=P, dup=P, reorder=P, corrupt=P or truncate=P, comma-separated"
+                    .into(),
+            );
+        }
+        for part in s.split(',') {
+            if part.trim().is_empty() {
+                return Err(format!("`{s}`: an empty item between commas"));
+            }
             let (name, value) = part
                 .split_once('=')
                 .ok_or_else(|| format!("`{part}`: expected NAME=P"))?;
@@ -120,11 +129,20 @@ mod parse_tests {
             "drop=0.1,drop=0.2",
             "dup=0.1,duplicate=0.1",
             "reorder=0.1,delay=0.2",
+            "",
+            " ",
+            "drop=0.1,,dup=0.1",
+            "drop=0.1,",
+            ",drop=0.1",
         ] {
             assert!(bad.parse::<FaultConfig>().is_err(), "{bad}");
         }
         let e = "drop=0.1,drop=0.2".parse::<FaultConfig>().unwrap_err();
         assert!(e.contains("twice"), "{e}");
+        let e = "".parse::<FaultConfig>().unwrap_err();
+        assert!(e.contains("no fault given"), "{e}");
+        let e = "drop=0.1,,dup=0.1".parse::<FaultConfig>().unwrap_err();
+        assert!(e.contains("empty item"), "{e}");
     }
 }
 
