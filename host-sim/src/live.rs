@@ -273,6 +273,10 @@ impl Observer for Both<'_> {
         self.0.finish();
         self.1.finish();
     }
+    fn ran(&mut self, report: &trn_bench::Report) {
+        self.0.ran(report);
+        self.1.ran(report);
+    }
     fn stop_requested(&self) -> bool {
         self.0.stop_requested() || self.1.stop_requested()
     }

@@ -3,6 +3,7 @@
 //! observer that answers `stop_requested` ends the run at the next trial boundary.
 
 use crate::records::TrialRecord;
+use crate::report::Report;
 
 /// Watches a run. Every method has a default that does nothing.
 pub trait Observer {
@@ -19,6 +20,11 @@ pub trait Observer {
     fn notice(&mut self, _text: &str) {}
     /// The run ended (well or not).
     fn finish(&mut self) {}
+    /// The run is over and `report` is whole: called once, before the run's files (the
+    /// report, the CSV) are written, so that what the observer shows of it (the command
+    /// line's summary) is not lost when a write then fails (a full disk). Not called for a
+    /// run that failed.
+    fn ran(&mut self, _report: &Report) {}
     /// True when the run should stop at the next trial boundary (an interrupt): it then
     /// ends as an interrupted run, with what it did so far.
     fn stop_requested(&self) -> bool {

@@ -211,6 +211,8 @@ pub fn run_with<S: Suite>(
     }
     drop(setup);
     report.wall_s = started.elapsed().as_secs_f64();
+    // what the observer shows of the run comes before the files that may fail to be written
+    rows.ran(&report);
     outputs.write_report(&report)?;
     if let (Some(p), Some(csv)) = (&spec.outputs.csv, rows.csv()) {
         crate::fsio::write_durably(p, csv.as_bytes())?;

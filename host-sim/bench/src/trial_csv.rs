@@ -155,6 +155,9 @@ impl Observer for TrialRows<'_> {
     fn finish(&mut self) {
         self.inner.finish()
     }
+    fn ran(&mut self, report: &crate::report::Report) {
+        self.inner.ran(report)
+    }
     fn stop_requested(&self) -> bool {
         self.inner.stop_requested()
     }

@@ -4,7 +4,7 @@
 
 use clap::Parser;
 use std::process::ExitCode;
-use trn_bench::{run, Command, RunSpec};
+use trn_bench::{run, Command, Observer, RunSpec};
 use trn_conformance::Conformance;
 use trn_sim::cli::{Cli, Cmd, Common};
 use trn_sim::live::{Both, LiveStream};
@@ -15,7 +15,8 @@ use trn_sim::{CliError, Result};
 use trn_studies::lifelong;
 
 /// Runs one specification with the progress bar and the interrupts (and the live view,
-/// `--rerun`/`--rerun-save`); draws its plot.
+/// `--rerun`/`--rerun-save`); prints its summary as soon as the run is over, before its
+/// files are written (a write that then fails loses no figure), then draws its plot.
 fn run_one(
     spec: RunSpec,
     common: &Common,
@@ -23,23 +24,86 @@ fn run_one(
     print_training: bool,
 ) -> Result<()> {
     let mut progress = Progress::new(spec.command == Command::Conformance, interrupts.clone());
-    let report = if common.rerun || common.rerun_save.is_some() {
-        let mut live = LiveStream::start(&spec.plant, common.rerun, common.rerun_save.as_deref())?;
-        let report = run::run_with(&spec, &mut Both(&mut progress, &mut live), &Conformance);
-        live.close()?;
-        report?
+    let mut live = if common.rerun || common.rerun_save.is_some() {
+        Some(LiveStream::start(
+            &spec.plant,
+            common.rerun,
+            common.rerun_save.as_deref(),
+        )?)
     } else {
-        run::run_with(&spec, &mut progress, &Conformance)?
+        None
     };
+    let mut both;
+    let watching: &mut dyn Observer = match live.as_mut() {
+        Some(live) => {
+            both = Both(&mut progress, live);
+            &mut both
+        }
+        None => &mut progress,
+    };
+    let mut summary = Summary {
+        inner: watching,
+        command: spec.command,
+        print_training,
+        printed: None,
+    };
+    let ran = run::run_with(&spec, &mut summary, &Conformance);
+    let printed = summary.printed.take();
+    if let Some(live) = live {
+        live.close()?;
+    }
+    let report = ran?;
     if let Some(p) = &spec.outputs.plot {
         plot(&report, p)?;
     }
-    match spec.command {
-        Command::Conformance => summary::conformance(&report)?,
-        _ if report.interrupted => summary::interrupted(&report),
-        _ => summary::print(&report, print_training)?,
+    // a run always ends in `ran` (the summary) unless it failed, which `ran?` returned
+    printed.unwrap_or(Ok(())).map_err(CliError::from)
+}
+
+/// The observer that prints the run's summary the moment the run is over ([`Observer::ran`]),
+/// beside the progress bar and the live view it passes everything on to.
+struct Summary<'a> {
+    inner: &'a mut dyn Observer,
+    command: Command,
+    print_training: bool,
+    /// The summary's outcome, once printed (a failed conformance check, too many failed
+    /// trials).
+    printed: Option<trn_bench::Result<()>>,
+}
+
+impl Observer for Summary<'_> {
+    fn start(&mut self, trials: u64) {
+        self.inner.start(trials)
     }
-    Ok(())
+    fn phase(&mut self, name: &str) {
+        self.inner.phase(name)
+    }
+    fn trial(&mut self, record: &trn_bench::records::TrialRecord) {
+        self.inner.trial(record)
+    }
+    fn message(&mut self, text: &str) {
+        self.inner.message(text)
+    }
+    fn notice(&mut self, text: &str) {
+        self.inner.notice(text)
+    }
+    fn finish(&mut self) {
+        self.inner.finish()
+    }
+    fn ran(&mut self, report: &trn_bench::Report) {
+        self.inner.ran(report);
+        self.printed = Some(match self.command {
+            Command::Conformance => summary::conformance(report),
+            _ if report.interrupted => {
+                summary::interrupted(report);
+                Ok(())
+            }
+            _ => summary::print(report, self.print_training),
+        });
+    }
+    fn stop_requested(&self) -> bool {
+        self.inner.stop_requested()
+    }
 }
 
 /// Draws the learning curves into a temporary file beside `path` that becomes `path` only
