@@ -24,46 +24,31 @@ fn run_one(
     print_training: bool,
 ) -> Result<()> {
     let mut progress = Progress::new(spec.command == Command::Conformance, interrupts.clone());
-    let mut live = if common.rerun || common.rerun_save.is_some() {
-        Some(LiveStream::start(
-            &spec.plant,
-            common.rerun,
-            common.rerun_save.as_deref(),
-        )?)
-    } else {
-        None
-    };
-    let mut both;
-    let watching: &mut dyn Observer = match live.as_mut() {
-        Some(live) => {
-            both = Both(&mut progress, live);
-            &mut both
-        }
-        None => &mut progress,
-    };
     let mut summary = Summary {
-        inner: watching,
         command: spec.command,
         print_training,
         printed: None,
     };
-    let ran = run::run_with(&spec, &mut summary, &Conformance);
-    let printed = summary.printed.take();
-    if let Some(live) = live {
+    let ran = if common.rerun || common.rerun_save.is_some() {
+        let mut live = LiveStream::start(&spec.plant, common.rerun, common.rerun_save.as_deref())?;
+        let watching = &mut Both(&mut progress, &mut live);
+        let ran = run::run_with(&spec, &mut Both(watching, &mut summary), &Conformance);
         live.close()?;
-    }
+        ran
+    } else {
+        run::run_with(&spec, &mut Both(&mut progress, &mut summary), &Conformance)
+    };
     let report = ran?;
     if let Some(p) = &spec.outputs.plot {
         plot(&report, p)?;
     }
     // a run always ends in `ran` (the summary) unless it failed, which `ran?` returned
-    printed.unwrap_or(Ok(())).map_err(CliError::from)
+    summary.printed.unwrap_or(Ok(())).map_err(CliError::from)
 }
 
-/// The observer that prints the run's summary the moment the run is over ([`Observer::ran`]),
-/// beside the progress bar and the live view it passes everything on to.
-struct Summary<'a> {
-    inner: &'a mut dyn Observer,
+/// Prints the run's summary the moment the run is over ([`Observer::ran`]), beside the
+/// progress bar and the live view.
+struct Summary {
     command: Command,
     print_training: bool,
     /// The summary's outcome, once printed (a failed conformance check, too many failed
@@ -71,27 +56,8 @@ struct Summary<'a> {
     printed: Option<trn_bench::Result<()>>,
 }
 
-impl Observer for Summary<'_> {
-    fn start(&mut self, trials: u64) {
-        self.inner.start(trials)
-    }
-    fn phase(&mut self, name: &str) {
-        self.inner.phase(name)
-    }
-    fn trial(&mut self, record: &trn_bench::records::TrialRecord) {
-        self.inner.trial(record)
-    }
-    fn message(&mut self, text: &str) {
-        self.inner.message(text)
-    }
-    fn notice(&mut self, text: &str) {
-        self.inner.notice(text)
-    }
-    fn finish(&mut self) {
-        self.inner.finish()
-    }
+impl Observer for Summary {
     fn ran(&mut self, report: &trn_bench::Report) {
-        self.inner.ran(report);
         self.printed = Some(match self.command {
             Command::Conformance => summary::conformance(report),
             _ if report.interrupted => {
@@ -100,9 +66,6 @@ impl Observer for Summary<'_> {
             }
             _ => summary::print(report, self.print_training),
         });
-    }
-    fn stop_requested(&self) -> bool {
-        self.inner.stop_requested()
     }
 }
 
