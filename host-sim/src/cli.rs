@@ -263,17 +263,12 @@ pub struct ConformanceArgs {
     pub common: Common,
 }
 
-/// The bus's silence timeout in seconds ([`trn_bench::spec::BUS_TIMEOUT_S`]).
+/// The bus's silence timeout in seconds ([`trn_bench::spec::check_bus_timeout`]).
 fn seconds(s: &str) -> Result<f64, String> {
     let x: f64 = s.parse().map_err(|e| format!("{e}"))?;
-    if trn_bench::spec::BUS_TIMEOUT_S.contains(&x) {
-        Ok(x)
-    } else {
-        Err(format!(
-            "{s}: {}",
-            trn_bench::spec::BUS_TIMEOUT_USAGE.trim_start_matches("--bus-timeout-s ")
-        ))
-    }
+    trn_bench::spec::check_bus_timeout(x)
+        .map(|()| x)
+        .map_err(|e| format!("{s} is not {e}"))
 }
 
 /// Options shared by `train`, `eval`, `grasp` and `conformance`.

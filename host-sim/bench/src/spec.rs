@@ -205,9 +205,19 @@ pub struct BusChoice {
 /// healthy controller between two heartbeats; `1e-300` once passed and failed at once.
 pub const BUS_TIMEOUT_S: core::ops::RangeInclusive<f64> = 0.5..=3600.0;
 
-/// What a timeout outside [`BUS_TIMEOUT_S`] is told.
-pub const BUS_TIMEOUT_USAGE: &str =
-    "--bus-timeout-s is a duration in [0.5, 3600] seconds (the controller's heartbeat comes every 0.1 s)";
+/// `seconds` as the bus's silence timeout: within [`BUS_TIMEOUT_S`], or what it must be
+/// (the option's name is the caller's to add).
+pub fn check_bus_timeout(seconds: f64) -> core::result::Result<(), String> {
+    if BUS_TIMEOUT_S.contains(&seconds) {
+        Ok(())
+    } else {
+        Err(format!(
+            "a duration in [{}, {}] seconds (the controller's heartbeat comes every 0.1 s)",
+            BUS_TIMEOUT_S.start(),
+            BUS_TIMEOUT_S.end()
+        ))
+    }
+}
 
 impl Default for BusChoice {
     fn default() -> Self {
@@ -469,8 +479,8 @@ impl RunSpec {
         {
             return usage("--checkpoint-every needs --checkpoint-out and the in-process controller (a controller on a bus gives its tables at the end)");
         }
-        if !(BUS_TIMEOUT_S.contains(&self.bus.timeout_s)) {
-            return usage(BUS_TIMEOUT_USAGE);
+        if let Err(e) = check_bus_timeout(self.bus.timeout_s) {
+            return usage(&format!("--bus-timeout-s is {e}"));
         }
         Ok(())
     }

@@ -453,7 +453,7 @@ impl SimConfig {
             None => Ok(SimConfig::realistic()),
             Some(p) => match p.to_str().and_then(SimConfig::named) {
                 Some(c) if !p.exists() => Ok(c),
-                _ if !p.exists() && p.symlink_metadata().is_err() => {
+                _ if matches!(p.symlink_metadata(), Err(e) if e.kind() == std::io::ErrorKind::NotFound) => {
                     Err(SimError::Config(format!(
                         "{}: neither a built-in configuration ({}) nor a file",
                         p.display(),

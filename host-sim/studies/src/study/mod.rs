@@ -130,7 +130,7 @@ impl Job {
             "{}-seed{}-{}.json",
             slug(&self.row.key),
             self.spec.seed,
-            &digest(&canonical(&self.spec))[..8]
+            &digest(canonical(&self.spec))[..8]
         )
     }
 }
@@ -266,11 +266,12 @@ fn canonical(spec: &RunSpec) -> String {
     serde_json::to_string(&s).unwrap_or_default()
 }
 
-/// CRC-64 (XZ) of `text` as 16 hex digits: stable across machines and builds (unlike
-/// `std`'s hasher), which a study split over a cluster needs.
-pub fn digest(text: &str) -> String {
+/// CRC-64 (XZ) of `text` (a specification's JSON, a run file's bytes) as 16 hex digits:
+/// stable across machines and builds (unlike `std`'s hasher), which a study split over a
+/// cluster needs.
+pub fn digest(text: impl AsRef<[u8]>) -> String {
     let crc = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
-    format!("{:016x}", crc.checksum(text.as_bytes()))
+    format!("{:016x}", crc.checksum(text.as_ref()))
 }
 
 /// A name as a file name: ASCII letters and digits, runs of anything else as one `-`.

@@ -131,7 +131,7 @@ pub fn seal(body: &[u8]) -> Result<Vec<u8>> {
     };
     let mut out = Vec::with_capacity(body.len() + 40);
     out.extend_from_slice(CHECKSUM_LINE.as_bytes());
-    out.extend_from_slice(checksum(body).as_bytes());
+    out.extend_from_slice(super::digest(body).as_bytes());
     out.extend_from_slice(b"\",\n");
     out.extend_from_slice(rest);
     Ok(out)
@@ -151,7 +151,7 @@ fn unseal(bytes: &[u8]) -> core::result::Result<Vec<u8>, String> {
     let mut body = Vec::with_capacity(bytes.len());
     body.extend_from_slice(b"{\n");
     body.extend_from_slice(rest);
-    let computed = checksum(&body);
+    let computed = super::digest(&body);
     if stated != computed.as_bytes() {
         return Err(format!(
             "its checksum {} is not its contents' ({computed}): the file was changed or damaged; run it again",
@@ -159,11 +159,6 @@ fn unseal(bytes: &[u8]) -> core::result::Result<Vec<u8>, String> {
         ));
     }
     Ok(body)
-}
-
-fn checksum(bytes: &[u8]) -> String {
-    let crc = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
-    format!("{:016x}", crc.checksum(bytes))
 }
 
 /// The run files among `paths`: each file as it is, each directory's `*.json` files (not
@@ -281,7 +276,7 @@ mod tests {
         assert_eq!(unseal(&sealed).unwrap(), BODY);
         // the checksum is the body's own, as the format says
         let hex = &sealed[CHECKSUM_LINE.len()..CHECKSUM_LINE.len() + 16];
-        assert_eq!(hex, checksum(BODY).as_bytes());
+        assert_eq!(hex, crate::study::digest(BODY).as_bytes());
     }
 
     #[test]
