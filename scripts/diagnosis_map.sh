@@ -2,7 +2,7 @@
 # The map's error (docs/diagnosis.md, "The map and its Jacobians"): trains the project preset
 # on a copy of the ideal plant without hysteresis (seeds 100-102, 300 trials), then measures
 # each network's coarse move and first fine move on the same plant at rest
-# (host-sim/bench/examples/map_error.rs). Prints the table (docs/results/diagnosis-map.md).
+# (host/bench/examples/map_error.rs). Prints the table (docs/results/diagnosis-map.md).
 # About a minute of one core.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,7 +12,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 plant="$tmp/no-hysteresis.toml"
 sed -e 's/^hysteresis_width = .*/hysteresis_width = 0.0/' \
-    -e 's/^hysteresis_asymmetry = .*/hysteresis_asymmetry = 0.0/' host-sim/plant/sim.toml > "$plant"
+    -e 's/^hysteresis_asymmetry = .*/hysteresis_asymmetry = 0.0/' host/plant/sim.toml > "$plant"
 # every joint's loop, and nothing else, changed (the ideal plant has no skew or widening)
 [ "$(grep -c '^hysteresis_width = 0.0$' "$plant")" = 5 ] || { echo "diagnosis_map: sim.toml changed shape" >&2; exit 1; }
 grep -q '^hysteresis_skew = 0.0$' "$plant" && grep -q '^load_width_gain = 0.0$' "$plant" \

@@ -1,6 +1,6 @@
 //! Processor-in-the-loop: the controller node (`trn-node`, the code the host runs) on CAN
 //! frames carried as SLCAN lines over UART0; the simulator bridges them onto its bus
-//! (host-sim `slcan:qemu`). The UART is an `embedded-can` port ([`SlcanPort`]) and the loop
+//! (the host's `--bus slcan:qemu`). The UART is an `embedded-can` port ([`SlcanPort`]) and the loop
 //! is [`ControllerNode::service`], the same seam and the same code path as the host's.
 //!
 //! The node boots as a board's does: its guard seeded (`store::entropy`), what the store of

@@ -38,7 +38,7 @@ needs_rerun = pytest.mark.skipif(rerun is None, reason="the rerun SDK is not ins
 
 FRAMES = ["upper_arm", "forearm", "wrist", "gripper_centre", "light_p", "light_q"]
 JOINTS = ["base", "shoulder", "elbow", "wrist_pitch", "wrist_roll"]
-SIM_TOML = pathlib.Path(__file__).resolve().parents[2] / "host-sim" / "plant" / "sim.toml"
+SIM_TOML = pathlib.Path(__file__).resolve().parents[2] / "host" / "plant" / "sim.toml"
 
 
 def random_angles(config, n, seed):

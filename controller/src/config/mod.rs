@@ -319,7 +319,7 @@ const TRIAL_SECANT: f32 = 0.3;
 /// arm's local Jacobian differs: on a hysteresis-free plant the learned averaged Jacobian's
 /// step left a residual across the error of about a quarter of it, against a first fine move
 /// of the true Jacobian that leaves 0.15 of the error (`docs/diagnosis.md`, the map's
-/// error). Measured against sigma 5 with time constant 100 (`host-sim/bench/examples/tune.rs`
+/// error). Measured against sigma 5 with time constant 100 (`host/bench/examples/tune.rs`
 /// with `SIG=5 SIGT=100` against the defaults, tuning seeds 1-8, realistic plant, 300
 /// trials, held-out deployment targets): combined noise-free error after the coarse move
 /// 31.6 against 34.0 px, after 2 fine moves 4.02 against 4.59 px, after the budget of 6
@@ -441,7 +441,7 @@ impl Config {
 
     /// The project's defaults. Deviations from [`Config::paper`], each measured: on the
     /// synthetic map of `tests/learning.rs` with `controller/examples/explore.rs`, and on
-    /// the simulated SoftArm with `host-sim/examples/tune.rs` (3 seeds, 300 trials; README
+    /// the simulated SoftArm with `host/bench/examples/tune.rs` (3 seeds, 300 trials; README
     /// "presets" has the side-by-side table):
     /// - Jacobian rate (8.16) prefactor 1.0 instead of 0.01, time constant 1000 instead of
     ///   100: with the printed rate the Jacobians barely move from their random start

@@ -239,7 +239,7 @@ fn trn_model_writes_the_arms_description() {
     assert_eq!(mjcf, trn_plant::model::mjcf(&cfg));
     // a file: the lengths are its own
     let file = tmp("short-arm.toml");
-    let sim_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/plant/sim.toml");
+    let sim_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/../plant/sim.toml");
     let text = std::fs::read_to_string(sim_toml).unwrap();
     assert!(text.contains("\nupper_arm_mm = 420.0\n"));
     std::fs::write(

@@ -5,7 +5,7 @@
 //! ```
 //!
 //! URDF by default, MuJoCo's MJCF with `--mjcf`; the configuration is a built-in one
-//! (`ideal`, `realistic`, `aging`, `realistic-aging`) or a TOML file (`host-sim/plant/sim.toml`
+//! (`ideal`, `realistic`, `aging`, `realistic-aging`) or a TOML file (`host/plant/sim.toml`
 //! documents it), the realistic plant when none is given. The chain and its frames:
 //! `trn_plant::model`.
 use std::path::PathBuf;

@@ -7,11 +7,13 @@ use std::path::Path;
 use std::process::Command;
 
 /// The sources a build compiles, relative to the workspace root: dirtiness is theirs.
-const SOURCES: [&str; 7] = [
+const SOURCES: [&str; 9] = [
     "controller",
     "protocol",
     "node",
-    "host-sim",
+    "store",
+    "vision",
+    "host",
     "python/src",
     "Cargo.toml",
     "Cargo.lock",

@@ -1,5 +1,5 @@
 //! The simulator's configuration: every parameter with its unit, loaded from TOML
-//! (`host-sim/sim.toml` documents the defaults). The valid ranges, and
+//! (`host/sim.toml` documents the defaults). The valid ranges, and
 //! [`SimConfig::validate`] that every load calls, are `validate.rs`'s.
 
 use serde::{Deserialize, Serialize};
@@ -132,7 +132,7 @@ fn default_wear_offset_max_deg() -> f64 {
 
 /// What the real arm has beyond the ideal plant. Every effect is off at zero
 /// ([`SimConfig::ideal`]); [`SimConfig::realistic`] (the default) turns them on with the
-/// magnitudes justified in `host-sim/sim.toml`.
+/// magnitudes justified in `host/sim.toml`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct RealismConfig {
@@ -361,7 +361,7 @@ impl SimConfig {
     /// generalised (skewed) loop that widens under load, creep, camera outliers and
     /// dropouts, occlusion by the hand and the cylinder, a typical lens's barrel distortion
     /// and bounded wear (off until drift.wear is turned on). Magnitudes and their reasons:
-    /// `host-sim/sim.toml`, section `[realism]`.
+    /// `host/sim.toml`, section `[realism]`.
     pub fn realistic() -> SimConfig {
         let mut c = SimConfig::ideal();
         c.realism = RealismConfig {

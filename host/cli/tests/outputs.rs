@@ -38,7 +38,7 @@ fn s(p: &Path) -> &str {
 }
 
 /// The default plant's configuration as a file (its keys documented beside it).
-const DEFAULT_TOML: &str = include_str!("../plant/sim.toml");
+const DEFAULT_TOML: &str = include_str!("../../plant/sim.toml");
 
 const SMALL: [&str; 7] = [
     "--trials",

@@ -1,4 +1,4 @@
-//! Prints the default simulator configuration as TOML (the source of `host-sim/sim.toml`).
+//! Prints the default simulator configuration as TOML (the source of `host/sim.toml`).
 fn main() {
     print!(
         "{}",
