@@ -338,6 +338,35 @@ pub(crate) fn lock_beside(path: &Path) -> Result<File> {
     }
 }
 
+/// Makes the folder `dir` (and the folders above it) for outputs that go into a folder (a
+/// study's runs and tables, a sweep's plants). A part of the path that is a file, not a
+/// folder, is refused by name, where `create_dir_all` would say only "Not a directory" or
+/// "File exists".
+pub fn create_folder(dir: &Path) -> Result<()> {
+    for above in dir.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        match fs::metadata(above) {
+            Ok(m) if m.is_dir() => break,
+            Ok(_) if above == dir => {
+                return Err(usage(
+                    dir,
+                    "is a file, not a folder: these outputs go into a folder",
+                ))
+            }
+            Ok(_) => {
+                return Err(usage(
+                    above,
+                    &format!(
+                        "is a file, not a folder: the outputs go into the folder {}",
+                        dir.display()
+                    ),
+                ))
+            }
+            Err(_) => {}
+        }
+    }
+    fs::create_dir_all(dir).map_err(io(dir))
+}
+
 /// The directory of a file (`.` for a bare name).
 pub fn parent(path: &Path) -> PathBuf {
     match path.parent() {

@@ -44,13 +44,24 @@ impl Common {
             timeout_s: self.bus_timeout_s,
             bitrate: self.bitrate,
         };
+        let eval_targets = count(self.eval_targets);
+        let snapshot_targets = match self.snapshot_targets.map(count) {
+            Some(n) if n > eval_targets => {
+                return Err(LabError::Usage(format!(
+                    "--snapshot-targets {n} is more than --eval-targets {eval_targets}: a snapshot evaluates the first of the held-out targets"
+                )))
+            }
+            Some(n) => n,
+            // the default, 50, takes every held-out target when there are fewer
+            None => Plan::new(0, 0, 0).snapshot_targets,
+        };
         spec.plan = Plan {
             trials,
-            eval_targets: count(self.eval_targets),
+            eval_targets,
             grasps: count(self.grasps),
             fine_moves: self.fine_moves,
             snapshot_every: count(self.snapshot_every),
-            snapshot_targets: count(self.snapshot_targets),
+            snapshot_targets,
             ..Plan::new(0, 0, 0)
         };
         spec.allow_config_change = self.allow_config_change;
@@ -175,10 +186,7 @@ impl StudyArgs {
             Some(p) => p.clone(),
             None => {
                 // the study's own folder holds its JSON: made here, as the run folder is
-                std::fs::create_dir_all(&out).map_err(|source| LabError::Io {
-                    path: out.clone(),
-                    source,
-                })?;
+                trn_bench::fsio::create_folder(&out)?;
                 out.join(format!("{}.json", study::slug(&file.name)))
             }
         };

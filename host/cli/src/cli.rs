@@ -340,9 +340,10 @@ pub struct Common {
     /// many training trials (0: none).
     #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
     pub snapshot_every: u64,
-    /// Held-out targets per network in each snapshot (the first of the held-out set).
-    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
-    pub snapshot_targets: u64,
+    /// Held-out targets per network in each snapshot (the first of the held-out set; at
+    /// most --eval-targets) [default: 50, or every held-out target when there are fewer]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=trn_bench::spec::MAX_COUNT as u64))]
+    pub snapshot_targets: Option<u64>,
     /// Write the JSON report here (.json).
     #[arg(long)]
     pub report: Option<PathBuf>,

@@ -244,3 +244,59 @@ fn outputs_that_cannot_be_written_fail_before_the_run() {
     fails_with(&out, "/nonexistent/dir");
     assert!(out.stdout.is_empty(), "the run went ahead");
 }
+
+#[test]
+fn a_snapshot_beyond_the_held_out_set_is_refused() {
+    let out = trn(&[
+        "train",
+        "--eval-targets",
+        "5",
+        "--snapshot-targets",
+        "6",
+        "--quiet",
+    ]);
+    usage_error(&out, "--snapshot-targets 6 is more than --eval-targets 5");
+    assert!(out.stdout.is_empty(), "the run went ahead");
+}
+
+/// `--out` of the commands that write a folder: a file in its path is named, nothing ran,
+/// and the file keeps its contents.
+#[test]
+fn an_output_folder_that_is_a_file_is_named() {
+    let file = tmp("out-is-a-file");
+    std::fs::write(&file, b"kept").unwrap();
+    let f = file.to_str().unwrap();
+    let under = file.join("sub");
+    let commands: [&[&str]; 4] = [
+        &[
+            "compare",
+            "--seeds",
+            "1",
+            "--trials",
+            "2",
+            "--eval-targets",
+            "1",
+        ],
+        &["sweep", "--trials", "2", "--eval-targets", "1"],
+        &[
+            "lifelong",
+            "--trials",
+            "2",
+            "--initial",
+            "1",
+            "--snapshot-every",
+            "1",
+        ],
+        &["study", "../../studies/precision.toml", "--trials", "2"],
+    ];
+    for args in commands {
+        for out_dir in [f, under.to_str().unwrap()] {
+            let mut a = args.to_vec();
+            a.extend(["--out", out_dir, "--quiet"]);
+            let out = trn(&a);
+            usage_error(&out, &format!("{f}: is a file, not a folder"));
+            assert!(out.stdout.is_empty(), "{args:?} went ahead");
+        }
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"kept");
+}

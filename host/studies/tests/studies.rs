@@ -505,3 +505,47 @@ fn controller_keys_name_what_is_wrong_in_them() {
         "{e}"
     );
 }
+
+/// A snapshot evaluates the first of the held-out targets: a study asking for more of them
+/// than the held-out set has is refused naming both (it was cut to the set without a word).
+#[test]
+fn a_snapshot_beyond_the_held_out_set_is_refused() {
+    let file = |snapshot: usize| {
+        format!(
+            "name = \"t\"\nseeds = [100]\n[base]\ntrials = 2\neval_targets = 5\n\
+             snapshot_targets = {snapshot}\n[[row]]\nname = \"a\"\n"
+        )
+    };
+    let e = refused(&file(6), &Overrides::default());
+    assert!(
+        e.contains("snapshot_targets 6 is more than eval_targets 5"),
+        "{e}"
+    );
+    let dir = scratch("snapshot-5");
+    StudyFile::parse(&file(5), "t.toml")
+        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+        .expect("as many as the held-out set");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A study's folder whose path runs through a file is refused naming that file, before
+/// anything runs, and the file is left as it was.
+#[test]
+fn a_run_folder_under_a_file_is_refused_naming_the_file() {
+    let dir = scratch("folder-is-a-file");
+    let file = dir.join("results");
+    std::fs::write(&file, b"kept").unwrap();
+    let s = tiny(&dir);
+    for runs in [file.clone(), file.join("runs")] {
+        let e = match study::run(&s, &opts(&runs, 1), &trn_bench::Unobserved, None) {
+            Ok(_) => panic!("a run folder under a file was accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains(&format!("{}: is a file, not a folder", file.display())),
+            "{e}"
+        );
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"kept");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -31,7 +31,7 @@ fn run(a: &Args) -> Result<(), String> {
         Some(p) => SimConfig::resolve(Some(std::path::Path::new(p))).map_err(|e| e.to_string())?,
         None => SimConfig::default(),
     };
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    trn_bench::fsio::create_folder(&a.out).map_err(|e| e.to_string())?;
     let named =
         |file: &str, e: &dyn std::fmt::Display| format!("{}: {e}", a.out.join(file).display());
     picture::hysteresis(&cfg, 0, &a.out.join("hysteresis.png"))

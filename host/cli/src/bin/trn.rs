@@ -121,12 +121,7 @@ fn main() -> ExitCode {
             studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)
         }),
         Cmd::Sweep(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
-            std::fs::create_dir_all(&a.out).map_err(|source| {
-                CliError::from(trn_bench::LabError::Io {
-                    path: a.out.clone(),
-                    source,
-                })
-            })?;
+            trn_bench::fsio::create_folder(&a.out)?;
             let (opts, json) = (a.opts.options(&a.out), a.out.join("sweep.json"));
             studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
         }),
@@ -182,12 +177,7 @@ fn lifelong_run(
     interrupts: &Interrupts,
 ) -> Result<()> {
     let study = spec.study()?;
-    std::fs::create_dir_all(&spec.out).map_err(|source| {
-        CliError::from(trn_bench::LabError::Io {
-            path: spec.out.clone(),
-            source,
-        })
-    })?;
+    trn_bench::fsio::create_folder(&spec.out)?;
     let json = spec.out.join("lifelong.json");
     let done = studies::run(
         &study,

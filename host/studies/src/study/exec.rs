@@ -21,7 +21,7 @@ use super::runfile::RunFile;
 use super::{Job, Shard, Study};
 use trn_bench::fsio::{self, Kind};
 use trn_bench::observe::{Observer, Unobserved};
-use trn_bench::{io, LabError, Result};
+use trn_bench::{LabError, Result};
 
 /// How a study runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -103,7 +103,7 @@ enum Step {
 pub fn execute(study: &Study, opts: &Options, watch: &dyn Watch) -> Result<Outcome> {
     study.check()?;
     let selected = study.select(opts.shard);
-    std::fs::create_dir_all(&opts.runs).map_err(io(&opts.runs))?;
+    fsio::create_folder(&opts.runs)?;
     if let Some(j) = selected.first() {
         fsio::check_path(&opts.runs.join(j.file_name()), Kind::Json)?;
     }

@@ -281,7 +281,7 @@ impl StudyFile {
                 let path = out.join(format!("{}.toml", slug(&c.row.name)));
                 let text =
                     toml::to_string(&spec.plant).map_err(|e| LabError::Usage(e.to_string()))?;
-                std::fs::create_dir_all(out).map_err(io(out))?;
+                trn_bench::fsio::create_folder(out)?;
                 trn_bench::fsio::write_durably(&path, text.as_bytes())?;
                 spec.plant_name = Some(path.display().to_string());
             }
@@ -530,6 +530,12 @@ fn resolve(layers: &[&Settings], dir: &Path) -> std::result::Result<(RunSpec, bo
     p.snapshot_every = last(&|l| l.snapshot_every).unwrap_or(p.snapshot_every);
     p.snapshot_targets = last(&|l| l.snapshot_targets).unwrap_or(p.snapshot_targets);
     p.snapshot_grasps = last(&|l| l.snapshot_grasps).unwrap_or(p.snapshot_grasps);
+    if let Some(n) = last(&|l| l.snapshot_targets).filter(|&n| n > p.eval_targets) {
+        return Err(format!(
+            "snapshot_targets {n} is more than eval_targets {} (a snapshot evaluates the first of the held-out targets)",
+            p.eval_targets
+        ));
+    }
     if p.fine_moves > 31 {
         return Err(format!("fine_moves {} (at most 31)", p.fine_moves));
     }
