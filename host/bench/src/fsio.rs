@@ -41,6 +41,19 @@ impl Kind {
         }
     }
 
+    /// What a file of this kind is, in a message.
+    pub fn what(self) -> &'static str {
+        match self {
+            Kind::Json => "this report",
+            Kind::Plot => "this plot",
+            Kind::Candump => "this candump log",
+            Kind::Csv => "this CSV",
+            Kind::Recording => "this recording",
+            Kind::Checkpoint => "this checkpoint",
+            Kind::SimState => "this simulator state",
+        }
+    }
+
     pub(crate) fn option(self) -> &'static str {
         match self {
             Kind::Json => "--report",
@@ -315,8 +328,10 @@ fn process_alive(_: u32) -> bool {
     true // unknown: keep the file
 }
 
-/// Takes the exclusive lock `.NAME.lock` beside `path` (held while the file lives).
-pub(crate) fn lock_beside(path: &Path) -> Result<File> {
+/// Takes the exclusive lock `.NAME.lock` beside `path`, held while the returned file lives
+/// (rule 3): a second run writing the same output is refused at once, naming `what` it
+/// would write, instead of the last writer's file winning.
+pub fn lock_beside(path: &Path, what: &str) -> Result<File> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -332,7 +347,10 @@ pub(crate) fn lock_beside(path: &Path) -> Result<File> {
         Ok(()) => Ok(file),
         Err(fs::TryLockError::WouldBlock) => Err(usage(
             path,
-            "another run is writing this checkpoint (its lock is held): wait for it or choose another path",
+            &format!(
+                "another run is writing {what} (its lock {} is held): wait for it or choose another path",
+                lock.display()
+            ),
         )),
         Err(fs::TryLockError::Error(e)) => Err(io(&lock)(e)),
     }

@@ -11,9 +11,10 @@
 //!    the directory flushed. A full disk or any other error names the user's path and leaves
 //!    the previous file (or nothing): never a truncated one. Temporary files of writers that
 //!    were killed (their process is gone) are removed when a run checks the same output.
-//! 3. **One writer per checkpoint**: a run that writes a checkpoint holds a lock beside it
-//!    (`.NAME.lock`) from the check to the end, so two runs cannot leave a checkpoint and a
-//!    `.sim` from different runs; the second is refused at once.
+//! 3. **One writer per output**: a run holds a lock beside each of its outputs
+//!    (`.NAME.lock`) from the check to the end, and a study beside its run folder, so two
+//!    runs cannot leave a checkpoint and a `.sim` from different runs, or a report, CSV or
+//!    study table of the one that happened to finish last; the second is refused at once.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -31,11 +32,11 @@ pub struct OutputPlan {
     report: Option<PathBuf>,
     candump: Option<PathBuf>,
     checkpoint: Option<PathBuf>,
-    _lock: Option<File>,
+    _locks: Vec<File>,
 }
 
 impl OutputPlan {
-    /// Checks every output of `spec` (rule 1) and takes the checkpoint's lock (rule 3).
+    /// Checks every output of `spec` (rule 1) and takes their locks (rule 3).
     pub fn check(spec: &RunSpec) -> Result<OutputPlan> {
         let o = &spec.outputs;
         let outputs: Vec<(&Path, Kind)> = [
@@ -91,15 +92,15 @@ impl OutputPlan {
                 written.push((p, what));
             }
         }
-        let lock = match &o.checkpoint {
-            Some(p) => Some(lock_beside(p)?),
-            None => None,
-        };
+        let locks = outputs
+            .iter()
+            .map(|&(path, kind)| lock_beside(path, kind.what()))
+            .collect::<Result<Vec<File>>>()?;
         Ok(OutputPlan {
             report: o.report.clone(),
             candump: o.candump.clone(),
             checkpoint: o.checkpoint.clone(),
-            _lock: lock,
+            _locks: locks,
         })
     }
 

@@ -300,3 +300,43 @@ fn an_output_folder_that_is_a_file_is_named() {
     }
     assert_eq!(std::fs::read(&file).unwrap(), b"kept");
 }
+
+/// Two runs writing the same report, or two studies the same run folder, are refused while
+/// the first holds the output's lock (the test holds it here), where the last writer's file
+/// used to win with both runs exiting 0; nothing runs and the first's file is untouched.
+#[test]
+fn a_second_writer_of_the_same_output_is_refused() {
+    let report = tmp("locked-report.json");
+    std::fs::write(&report, b"the first run's").unwrap();
+    let lock = |path: &std::path::Path| {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let file = std::fs::File::create(path.with_file_name(format!(".{name}.lock"))).unwrap();
+        file.try_lock().unwrap();
+        file
+    };
+    let held = lock(&report);
+    let mut args = vec!["train", "--report", report.to_str().unwrap()];
+    args.extend(SMALL);
+    let out = trn(&args);
+    usage_error(&out, "another run is writing this report");
+    assert!(out.stdout.is_empty(), "the run went ahead");
+    assert_eq!(std::fs::read(&report).unwrap(), b"the first run's");
+    drop(held);
+
+    let study = tmp("locked-study");
+    std::fs::create_dir_all(study.join("runs")).unwrap();
+    let held = lock(&study.join("runs"));
+    let out = trn(&[
+        "study",
+        "../../studies/precision.toml",
+        "--trials",
+        "2",
+        "--out",
+        study.to_str().unwrap(),
+        "--quiet",
+    ]);
+    usage_error(&out, "another run is writing this study's run folder");
+    drop(held);
+    let runs = std::fs::read_dir(study.join("runs")).unwrap().count();
+    assert_eq!(runs, 0, "a run file was written");
+}

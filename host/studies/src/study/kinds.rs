@@ -6,7 +6,7 @@
 
 use super::runfile::{self, RunFile};
 use super::{execute, Finished, Options, Study, Table, Watch};
-use trn_bench::{LabError, Result};
+use trn_bench::{fsio, LabError, Result};
 
 /// The table and JSON of a study from the run files of every one of its jobs (any order;
 /// a run present twice, from two shards, counts once). Fails naming what is missing or
@@ -52,9 +52,22 @@ pub fn run(
     watch: &dyn Watch,
     json: Option<&std::path::Path>,
 ) -> Result<Ran> {
+    // one writer per run folder (per shard of it: a job array's shards share one) and per
+    // JSON, from here to the end (output.rs, rule 3)
+    let mut locks = Vec::new();
     if let Some(p) = json {
         trn_bench::fsio::check_path(p, trn_bench::fsio::Kind::Json)?;
+        locks.push(fsio::lock_beside(p, "this study's JSON")?);
     }
+    fsio::create_folder(&opts.runs)?;
+    let name = opts.runs.file_name().unwrap_or_default().to_string_lossy();
+    let folder = match opts.shard {
+        Some(s) if s.count > 1 => opts
+            .runs
+            .with_file_name(format!("{name}.shard-{}-of-{}", s.index, s.count)),
+        _ => opts.runs.clone(),
+    };
+    locks.push(fsio::lock_beside(&folder, "this study's run folder")?);
     let outcome = execute(study, opts, watch)?;
     if !outcome.failed.is_empty() {
         let errors: Vec<String> = outcome
