@@ -98,15 +98,30 @@ pub fn save_image(image: &[u8], path: &Path) -> Result<()> {
     crate::fsio::write_durably(path, image)
 }
 
-/// [`save_with_state`] for an image read out of a controller.
+/// [`save_with_state`] for an image read out of a controller. The pair is written so that a
+/// kill at any moment leaves one that continues: the `.sim` of the pair on disk is kept as
+/// `C.sim.prev` (a rename), the new `.sim` is written, then the checkpoint, then the kept
+/// one is removed; until the checkpoint is replaced, the kept `.sim` is the one that pairs
+/// with it ([`crate::sim_state::load_beside`] takes whichever of the two does).
 pub fn save_image_with_state(
     image: &[u8],
     path: &Path,
     mut state: crate::sim_state::SimState,
 ) -> Result<()> {
-    save_image(image, path)?;
+    checkpoint::verify(image).map_err(checkpoint_err(path))?;
+    let sim = crate::sim_state::path_beside(path);
+    let prev = crate::sim_state::previous_beside(path);
+    // keep the `.sim` that pairs with the checkpoint on disk; after a save that was killed
+    // before its checkpoint, that is the one it kept, not the newer one beside it
+    let on_disk = read(path).ok().map(|(bytes, _)| crc_of(&bytes));
+    if on_disk.is_some() && crate::sim_state::paired_crc(&sim) == on_disk {
+        std::fs::rename(&sim, &prev).map_err(io(&sim))?;
+    }
     state.checkpoint_crc = crc_of(image);
-    crate::sim_state::save(&state, &crate::sim_state::path_beside(path))
+    crate::sim_state::save(&state, &sim)?;
+    crate::fsio::write_durably(path, image)?;
+    let _ = std::fs::remove_file(&prev);
+    Ok(())
 }
 
 /// Reads and verifies a checkpoint file (length, CRC, magic, version, shapes, values):
@@ -152,16 +167,16 @@ pub fn save(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<()
     crate::fsio::write_durably(path, &buf[..n])
 }
 
-/// Writes the pair a run continues from: the controller's checkpoint at `path`, then the
-/// simulator's `state` beside it (`path.sim`) with the checkpoint's CRC, each durably.
+/// Writes the pair a run continues from: the controller's checkpoint at `path` and the
+/// simulator's `state` beside it (`path.sim`) with the checkpoint's CRC, each durably, a kill
+/// at any moment leaving a pair that continues ([`save_image_with_state`]).
 pub fn save_with_state(
     ctrl: &Controller,
     provenance: Provenance,
     path: &Path,
-    mut state: crate::sim_state::SimState,
+    state: crate::sim_state::SimState,
 ) -> Result<()> {
-    save(ctrl, provenance, path)?;
-    let (bytes, _) = read(path)?;
-    state.checkpoint_crc = crc_of(&bytes);
-    crate::sim_state::save(&state, &crate::sim_state::path_beside(path))
+    let mut buf = vec![0u8; checkpoint::MAX_SIZE];
+    let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
+    save_image_with_state(&buf[..n], path, state)
 }

@@ -65,7 +65,7 @@ pub fn run_with<S: Suite>(
         let beside = sim_state::path_beside(p);
         if plan.resume {
             let crc = checkpoint_file::crc_of(&file);
-            let state = sim_state::load(&beside, spec.seed, &spec.plant, crc)?;
+            let state = sim_state::load_beside(p, spec.seed, &spec.plant, crc)?;
             plan.first_trial = state.trials_done;
             if spec.trials_left {
                 plan.trials = state.trials_planned.saturating_sub(state.trials_done);

@@ -66,6 +66,45 @@ pub fn path_beside(checkpoint: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// Where a save keeps the `.sim` of the pair on disk until its new checkpoint is written
+/// (`C.sim.prev`; [`crate::checkpoint_file::save_image_with_state`]).
+pub fn previous_beside(checkpoint: &Path) -> PathBuf {
+    let mut name = path_beside(checkpoint).into_os_string();
+    name.push(".prev");
+    PathBuf::from(name)
+}
+
+/// The CRC of the controller checkpoint the state at `path` was saved with, if it reads.
+pub fn paired_crc(path: &Path) -> Option<u32> {
+    let mut bytes = vec![];
+    trn_plant::input::open(path)
+        .ok()?
+        .take(MAX_SIZE + 1)
+        .read_to_end(&mut bytes)
+        .ok()?;
+    decode(&bytes, path).ok().map(|s| s.checkpoint_crc)
+}
+
+/// [`load`] of the state that pairs with the controller checkpoint `checkpoint` (CRC
+/// `checkpoint_crc`): the `.sim` beside it, or, when a save was killed between its two
+/// writes, the `.sim` it kept (`C.sim.prev`). Errors are those of the `.sim` beside it.
+pub fn load_beside(
+    checkpoint: &Path,
+    seed: u64,
+    cfg: &SimConfig,
+    checkpoint_crc: u32,
+) -> Result<SimState> {
+    let sim = path_beside(checkpoint);
+    let prev = previous_beside(checkpoint);
+    match load(&sim, seed, cfg, checkpoint_crc) {
+        Ok(state) => Ok(state),
+        Err(e) => match prev.exists() {
+            true => load(&prev, seed, cfg, checkpoint_crc).map_err(|_| e),
+            false => Err(e),
+        },
+    }
+}
+
 fn bad(path: &Path, what: &str) -> Error {
     Error::Usage(format!("simulator checkpoint {}: {what}", path.display()))
 }

@@ -21,6 +21,26 @@ fn controller(seed: u64) -> Box<Controller> {
     c
 }
 
+/// Starts the writer test `child` of this executable on `path` (through the variable `env`)
+/// and kills it (SIGKILL) after `from_ms` plus a pseudo-random draw from `seed` of up to
+/// 200 ms.
+fn kill_a_writer(child: &str, env: &str, path: &Path, seed: &mut u64, from_ms: u64) {
+    let me = std::env::current_exe().unwrap();
+    let mut child = Command::new(me)
+        .args(["--exact", child, "--nocapture", "--test-threads", "1"])
+        .env(env, path)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    std::thread::sleep(Duration::from_millis(from_ms + *seed % 200));
+    child.kill().unwrap();
+    child.wait().unwrap();
+}
+
 /// Not a test of its own: the writer the kill test starts in a child process (this test
 /// executable, with `TRN_CKPT_WRITER` set). It writes checkpoints of alternating tables to
 /// the path until it is killed.
@@ -47,28 +67,15 @@ fn a_kill_during_a_write_leaves_the_old_or_the_new_checkpoint() {
     let bystander = d.join("run.tmp");
     std::fs::write(&bystander, b"an unrelated file").unwrap();
     checkpoint_file::save(&controller(1), Provenance::CUSTOM, &path).unwrap();
-    let me = std::env::current_exe().unwrap();
     let mut seed = 0x2545_F491_4F6C_DD1Du64;
     for round in 0..12 {
-        let mut child = Command::new(&me)
-            .args([
-                "--exact",
-                "checkpoint_writer_child",
-                "--nocapture",
-                "--test-threads",
-                "1",
-            ])
-            .env("TRN_CKPT_WRITER", &path)
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        std::thread::sleep(Duration::from_millis(30 + seed % 200));
-        child.kill().unwrap(); // SIGKILL
-        child.wait().unwrap();
+        kill_a_writer(
+            "checkpoint_writer_child",
+            "TRN_CKPT_WRITER",
+            &path,
+            &mut seed,
+            30,
+        );
         let bytes = std::fs::read(&path).unwrap();
         let h = checkpoint::verify(&bytes);
         assert!(h.is_ok(), "round {round}: {:?} ({} bytes)", h, bytes.len());
@@ -84,6 +91,70 @@ fn a_kill_during_a_write_leaves_the_old_or_the_new_checkpoint() {
             "{name}"
         );
     }
+}
+
+fn sim_state(trials_done: usize) -> trn_bench::sim_state::SimState {
+    use rand_core::SeedableRng;
+    let mut plant = trn_plant::Plant::new(&trn_plant::SimConfig::aging(), 7).unwrap();
+    plant.settle();
+    trn_bench::sim_state::SimState {
+        version: trn_bench::sim_state::VERSION,
+        seed: 7,
+        trials_done,
+        trials_planned: 1 << 30,
+        history: Default::default(),
+        runner_rng: rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3),
+        runner_trial: 0,
+        checkpoint_crc: 0,
+        plant,
+    }
+}
+
+/// Not a test of its own: the writer of the pair test, in a child process (with
+/// `TRN_PAIR_WRITER` set). It writes checkpoint pairs (alternating tables, the simulator's
+/// state counting the saves) until it is killed.
+#[test]
+fn pair_writer_child() {
+    let Some(path) = std::env::var_os("TRN_PAIR_WRITER") else {
+        return;
+    };
+    let (a, b) = (controller(1), controller(2));
+    for i in 1.. {
+        let c = if i % 2 == 0 { &a } else { &b };
+        checkpoint_file::save_with_state(c, Provenance::CUSTOM, Path::new(&path), sim_state(i))
+            .unwrap();
+    }
+}
+
+/// A kill -9 at random moments of repeated checkpoint pair writes (the controller's
+/// checkpoint and the simulator's `.sim`): a pair that continues is always there, the
+/// checkpoint on disk with the state saved with it. Fails if a kill between the pair's two
+/// writes leaves a checkpoint and a `.sim` from different saves (as writing the checkpoint,
+/// then the `.sim` over the old one, did).
+#[test]
+fn a_kill_during_a_pair_write_leaves_a_pair_that_continues() {
+    let d = dir("pair");
+    let path = d.join("run.ckpt");
+    checkpoint_file::save_with_state(&controller(1), Provenance::CUSTOM, &path, sim_state(0))
+        .unwrap();
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    let mut kept = 0;
+    for round in 0..16 {
+        kill_a_writer("pair_writer_child", "TRN_PAIR_WRITER", &path, &mut seed, 60);
+        let (bytes, _) = checkpoint_file::read(&path).unwrap();
+        let crc = checkpoint_file::crc_of(&bytes);
+        let state =
+            trn_bench::sim_state::load_beside(&path, 7, &trn_plant::SimConfig::aging(), crc)
+                .unwrap_or_else(|e| panic!("round {round}: {e}"));
+        assert_eq!(state.checkpoint_crc, crc);
+        kept += usize::from(trn_bench::sim_state::previous_beside(&path).exists());
+    }
+    // a finished save leaves no kept `.sim`
+    checkpoint_file::save_with_state(&controller(1), Provenance::CUSTOM, &path, sim_state(0))
+        .unwrap();
+    assert!(!trn_bench::sim_state::previous_beside(&path).exists());
+    eprintln!("{kept} of 16 kills came between a pair's two writes");
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
