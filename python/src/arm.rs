@@ -29,8 +29,7 @@ use serde::{Deserialize, Serialize};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::markers::Tracker;
 use trn_plant::targets::{HeldOut, Target};
-use trn_plant::vec3::V3;
-use trn_plant::{uniform, Plant, PointStatus, Readings, SimConfig};
+use trn_plant::{uniform, Plant, PointStatus, Readings, SimConfig, Vector3};
 
 use crate::render;
 
@@ -80,7 +79,7 @@ struct Truth {
     lights_true: Vec<f64>,
     in_view: Vec<bool>,
     joint_angles_deg: [f64; 5],
-    gripper_mm: V3,
+    gripper_mm: Vector3<f64>,
     pose_error_mm: f32,
     pose_error_deg: f32,
 }
@@ -294,8 +293,11 @@ impl Sim {
         d.set_item("target_true", target_true)?;
         d.set_item("pressures", self.commanded.to_vec())?;
         d.set_item("joint_angles_deg", t.joint_angles_deg.to_vec())?;
-        d.set_item("gripper_mm", t.gripper_mm.to_vec())?;
-        d.set_item("target_gripper_mm", self.target.pose.centre_mm.to_vec())?;
+        d.set_item("gripper_mm", <[f64; 3]>::from(t.gripper_mm))?;
+        d.set_item(
+            "target_gripper_mm",
+            <[f64; 3]>::from(self.target.pose.centre_mm),
+        )?;
         d.set_item("pose_error_mm", t.pose_error_mm as f64)?;
         d.set_item("pose_error_deg", t.pose_error_deg as f64)?;
         d.set_item(
@@ -430,21 +432,23 @@ impl Arm {
         let s = &self.sim;
         let chain = s.plant.chain();
         let d = PyDict::new(py);
-        let links: Vec<V3> = vec![
-            [0.0, 0.0, 0.0],
+        // each point a list [x, y, z]
+        let xyz = <[f64; 3]>::from;
+        let links = [
+            Vector3::zeros(),
             chain.shoulder,
             chain.elbow,
             chain.wrist,
             chain.pose.centre_mm,
         ];
-        d.set_item("links", links)?;
-        d.set_item("lights", lights(&s.cfg, &chain.pose).to_vec())?;
+        d.set_item("links", links.map(xyz))?;
+        d.set_item("lights", lights(&s.cfg, &chain.pose).map(xyz))?;
         let t = forward(&s.cfg, &s.target.pose.joint_angles_deg.map(f64::to_radians));
         d.set_item(
             "target_links",
-            vec![t.shoulder, t.elbow, t.wrist, t.pose.centre_mm],
+            [t.shoulder, t.elbow, t.wrist, t.pose.centre_mm].map(xyz),
         )?;
-        d.set_item("target_lights", lights(&s.cfg, &t.pose).to_vec())?;
+        d.set_item("target_lights", lights(&s.cfg, &t.pose).map(xyz))?;
         let cams: Vec<[f64; 3]> = s.cfg.cameras.iter().map(|c| c.position_mm).collect();
         d.set_item("cameras", cams)?;
         Ok(d)

@@ -41,14 +41,16 @@ pub fn arm_frames<'py>(py: Python<'py>, q: Vec<f64>, config: &str) -> PyResult<B
     let c = forward(&cfg, &q);
     let [p, l_q] = lights(&cfg, &c.pose);
     let d = PyDict::new(py);
-    d.set_item("upper_arm", c.shoulder)?;
-    d.set_item("forearm", c.elbow)?;
-    d.set_item("wrist", c.wrist)?;
-    d.set_item("gripper_centre", c.pose.centre_mm)?;
-    d.set_item("light_p", p)?;
-    d.set_item("light_q", l_q)?;
-    d.set_item("approach", c.pose.approach)?;
-    d.set_item("finger_axis", c.pose.finger_axis)?;
-    d.set_item("normal", c.pose.normal)?;
+    // each point a list [x, y, z]
+    let xyz = <[f64; 3]>::from;
+    d.set_item("upper_arm", xyz(c.shoulder))?;
+    d.set_item("forearm", xyz(c.elbow))?;
+    d.set_item("wrist", xyz(c.wrist))?;
+    d.set_item("gripper_centre", xyz(c.pose.centre_mm))?;
+    d.set_item("light_p", xyz(p))?;
+    d.set_item("light_q", xyz(l_q))?;
+    d.set_item("approach", xyz(c.pose.approach))?;
+    d.set_item("finger_axis", xyz(c.pose.finger_axis))?;
+    d.set_item("normal", xyz(c.pose.normal))?;
     Ok(d)
 }

@@ -3,8 +3,7 @@
 //! target (rings). A small software rasteriser: the binding carries no plotting library.
 
 use trn_plant::camera::Camera;
-use trn_plant::vec3::{add, scale, sub, V3};
-use trn_plant::{Chain, SimConfig};
+use trn_plant::{Chain, SimConfig, Vector3};
 
 /// What a picture shows.
 pub struct Scene<'a> {
@@ -103,8 +102,8 @@ fn camera(scene: &Scene, cam: usize, s: f64) -> Image {
         (c.resolution[1] as f64 / s).ceil() as usize,
     );
     let ch = &scene.chain;
-    let joints: [V3; 5] = [
-        [0.0, 0.0, 0.0],
+    let joints = [
+        Vector3::zeros(),
         ch.shoulder,
         ch.elbow,
         ch.wrist,
@@ -113,10 +112,10 @@ fn camera(scene: &Scene, cam: usize, s: f64) -> Image {
     // each link sampled along its length: what is in view is drawn, the rest clipped
     let radius = (scene.cfg.link_radius_mm / 4.0).clamp(2.0, 8.0) / s.sqrt();
     for pair in joints.windows(2) {
-        let d = sub(&pair[1], &pair[0]);
+        let d = pair[1] - pair[0];
         let n = 400;
         for i in 0..=n {
-            let p = add(&pair[0], &scale(&d, i as f64 / n as f64));
+            let p = pair[0] + d * (i as f64 / n as f64);
             if let Some((u, v)) = camera.project(&p) {
                 img.disc(u / s, v / s, radius, ARM, None);
             }

@@ -16,7 +16,7 @@ use trn_bench::records::{Phase, TrialRecord};
 use trn_bench::{metrics, scoring, LabError, Observer};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::nodes::Sight;
-use trn_plant::{Readings, SimConfig};
+use trn_plant::{Readings, SimConfig, Vector3};
 
 use crate::{CliError, Result};
 
@@ -160,7 +160,7 @@ impl LiveStream {
                 let q = c.pose.joint_angles_deg.map(f64::to_radians);
                 let chain = forward(&self.cfg, &q);
                 let links = [
-                    [0.0, 0.0, 0.0],
+                    Vector3::zeros(),
                     chain.shoulder,
                     chain.elbow,
                     chain.wrist,

@@ -8,8 +8,7 @@ use crate::plot::{fonts, side_legend, with_legend, Mark};
 
 use trn_plant::joint::Joint;
 use trn_plant::kinematics::{forward, lights};
-use trn_plant::vec3::V3;
-use trn_plant::{Plant, SimConfig};
+use trn_plant::{Plant, SimConfig, Vector3};
 
 type R = Result<(), Box<dyn std::error::Error>>;
 
@@ -75,18 +74,15 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
     let chain = forward(&cfg, &plant.joint_angles());
     let cyl = plant.place_cylinder();
     let l = lights(&cfg, &chain.pose);
-    let links: Vec<V3> = vec![
-        [0.0, 0.0, 0.0],
+    let links = [
+        Vector3::zeros(),
         chain.shoulder,
         chain.elbow,
         chain.wrist,
         chain.pose.centre_mm,
     ];
-    let half = trn_plant::vec3::scale(&cyl.axis, cyl.length / 2.0);
-    let cyl_ends = [
-        trn_plant::vec3::add(&cyl.centre, &half),
-        trn_plant::vec3::sub(&cyl.centre, &half),
-    ];
+    let half = cyl.axis * (cyl.length / 2.0);
+    let cyl_ends = [cyl.centre + half, cyl.centre - half];
     fonts();
     let root = BitMapBackend::new(path, (1400 + crate::plot::LEGEND_W, 1000)).into_drawing_area();
     root.fill(&WHITE)?;

@@ -1,16 +1,17 @@
 //! Calibrated pinhole cameras with optional radial distortion.
 
 use super::config::CameraConfig;
-use super::vec3::{cross, dot, norm, sub, unit, V3};
+use super::geometry::unit;
+use super::Vector3;
 
 /// A pinhole camera: optical axis from its position towards `look_at`, image x to the
 /// right, image y down, principal point at the image centre.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
-    pos: V3,
-    forward: V3,
-    right: V3,
-    down: V3,
+    pos: Vector3<f64>,
+    forward: Vector3<f64>,
+    right: Vector3<f64>,
+    down: Vector3<f64>,
     f: f64,
     cx: f64,
     cy: f64,
@@ -22,16 +23,17 @@ pub struct Camera {
 impl Camera {
     /// A camera from its configuration.
     pub fn new(c: &CameraConfig) -> Camera {
-        let forward = unit(&sub(&c.look_at_mm, &c.position_mm));
-        let up = [0.0, 0.0, 1.0];
-        let mut right = cross(&forward, &up);
-        if norm(&right) < 1e-9 {
-            right = [0.0, -1.0, 0.0];
+        let pos = Vector3::from(c.position_mm);
+        let forward = unit(&(Vector3::from(c.look_at_mm) - pos));
+        let up = Vector3::new(0.0, 0.0, 1.0);
+        let mut right = forward.cross(&up);
+        if right.norm() < 1e-9 {
+            right = Vector3::new(0.0, -1.0, 0.0);
         }
         let right = unit(&right);
-        let down = cross(&forward, &right);
+        let down = forward.cross(&right);
         Camera {
-            pos: c.position_mm,
+            pos,
             forward,
             right,
             down,
@@ -49,38 +51,33 @@ impl Camera {
     }
 
     /// The camera centre (mm).
-    pub fn position(&self) -> V3 {
+    pub fn position(&self) -> Vector3<f64> {
         self.pos
     }
 
     /// The image's x (right) and y (down) directions in the base frame (unit vectors; the
     /// optical axis is right x down).
-    pub fn image_axes(&self) -> (V3, V3) {
+    pub fn image_axes(&self) -> (Vector3<f64>, Vector3<f64>) {
         (self.right, self.down)
     }
 
     /// The direction (unit, base frame) of the pinhole ray through pixel `(u, v)`, lens
     /// distortion ignored: a starting point for [`super::stereo::reprojection_error`].
-    pub fn ray(&self, u: f64, v: f64) -> V3 {
+    pub fn ray(&self, u: f64, v: f64) -> Vector3<f64> {
         let (xn, yn) = ((u - self.cx) / self.f, (v - self.cy) / self.f);
-        let d = [
-            self.forward[0] + self.right[0] * xn + self.down[0] * yn,
-            self.forward[1] + self.right[1] * xn + self.down[1] * yn,
-            self.forward[2] + self.right[2] * xn + self.down[2] * yn,
-        ];
-        let n = norm(&d);
-        [d[0] / n, d[1] / n, d[2] / n]
+        let d = self.forward + self.right * xn + self.down * yn;
+        d / d.norm()
     }
 
     /// Projects a point (mm) to pixels; `None` when it is behind the camera or outside the
     /// image.
-    pub fn project(&self, p: &V3) -> Option<(f64, f64)> {
-        let d = sub(p, &self.pos);
-        let z = dot(&d, &self.forward);
+    pub fn project(&self, p: &Vector3<f64>) -> Option<(f64, f64)> {
+        let d = p - self.pos;
+        let z = d.dot(&self.forward);
         if z <= 1.0 {
             return None;
         }
-        let (xn, yn) = (dot(&d, &self.right) / z, dot(&d, &self.down) / z);
+        let (xn, yn) = (d.dot(&self.right) / z, d.dot(&self.down) / z);
         let r2 = xn * xn + yn * yn;
         let g = 1.0 + self.k[0] * r2 + self.k[1] * r2 * r2;
         let (u, v) = (self.cx + self.f * xn * g, self.cy + self.f * yn * g);
@@ -106,15 +103,22 @@ mod tests {
             look_at_mm: [1000.0, 0.0, 0.0],
             distortion: [0.0, 0.0],
         });
-        assert_eq!(c.project(&[1000.0, 0.0, 0.0]), Some((320.0, 240.0)));
+        assert_eq!(
+            c.project(&Vector3::new(1000.0, 0.0, 0.0)),
+            Some((320.0, 240.0))
+        );
         // 100 mm to the left and 50 mm up at 1 m: u = 320 - 500 * 0.1, v = 240 - 500 * 0.05
-        let (u, v) = c.project(&[1000.0, 100.0, 50.0]).unwrap();
+        let (u, v) = c.project(&Vector3::new(1000.0, 100.0, 50.0)).unwrap();
         assert!(
             (u - 270.0).abs() < 1e-9 && (v - 215.0).abs() < 1e-9,
             "{u} {v}"
         );
-        assert_eq!(c.project(&[-1000.0, 0.0, 0.0]), None, "behind");
-        assert_eq!(c.project(&[1000.0, 1000.0, 0.0]), None, "outside the image");
+        assert_eq!(c.project(&Vector3::new(-1000.0, 0.0, 0.0)), None, "behind");
+        assert_eq!(
+            c.project(&Vector3::new(1000.0, 1000.0, 0.0)),
+            None,
+            "outside the image"
+        );
     }
 
     #[test]
@@ -126,11 +130,15 @@ mod tests {
             look_at_mm: [1000.0, 0.0, 0.0],
             distortion: [0.1, 0.0],
         };
-        let (u, _) = Camera::new(&cfg).project(&[1000.0, 200.0, 0.0]).unwrap();
+        let (u, _) = Camera::new(&cfg)
+            .project(&Vector3::new(1000.0, 200.0, 0.0))
+            .unwrap();
         // xn = -0.2, r2 = 0.04, g = 1.004: u = 320 - 500 * 0.2 * 1.004
         assert!((u - (320.0 - 100.4)).abs() < 1e-9);
         cfg.distortion = [0.0, 0.0];
-        let (u0, _) = Camera::new(&cfg).project(&[1000.0, 200.0, 0.0]).unwrap();
+        let (u0, _) = Camera::new(&cfg)
+            .project(&Vector3::new(1000.0, 200.0, 0.0))
+            .unwrap();
         assert!(u < u0);
     }
 }

@@ -1,16 +1,16 @@
 //! Cylinders to grasp and the score of a grasp (Fig. 8.3).
 
+use super::geometry::angle_deg;
 use super::kinematics::forward;
-use super::vec3::{add, angle_deg, norm, scale, sub, V3};
-use super::Plant;
+use super::{Plant, Vector3};
 
 /// A cylinder to grasp.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cylinder {
     /// Centre of mass (mm).
-    pub centre: V3,
+    pub centre: Vector3<f64>,
     /// Unit axis (ZZ').
-    pub axis: V3,
+    pub axis: Vector3<f64>,
     /// Radius (mm).
     pub radius: f64,
     /// Length (mm).
@@ -35,10 +35,7 @@ impl Plant {
     pub fn place_cylinder(&mut self) -> Cylinder {
         let pose = self.gripper_pose();
         let c = Cylinder {
-            centre: add(
-                &pose.centre_mm,
-                &scale(&pose.approach, self.cfg.approach_mm),
-            ),
+            centre: pose.centre_mm + pose.approach * self.cfg.approach_mm,
             axis: pose.normal,
             radius: self.cfg.cylinder_radius_mm,
             length: self.cfg.cylinder_length_mm,
@@ -72,20 +69,20 @@ impl Plant {
         let mut q = self.joint_angles();
         let centre = |q: &[f64; 5]| forward(&self.cfg, q).pose.centre_mm;
         for _ in 0..30 {
-            let r = sub(&cyl.centre, &centre(&q));
-            if norm(&r) < 0.01 {
+            let r = cyl.centre - centre(&q);
+            if r.norm() < 0.01 {
                 break;
             }
             let mut jac = nalgebra::Matrix3::<f64>::zeros();
             for k in 0..MOVED {
                 let mut qk = q;
                 qk[k] += 1e-6;
-                let d = sub(&centre(&qk), &centre(&q));
+                let d = centre(&qk) - centre(&q);
                 for row in 0..3 {
                     jac[(row, k)] = d[row] / 1e-6;
                 }
             }
-            let Some(dq) = jac.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2])) else {
+            let Some(dq) = jac.lu().solve(&r) else {
                 return false;
             };
             // at most 0.2 rad per step: the solution nearest the present pose
@@ -104,7 +101,7 @@ impl Plant {
                 let (lo, hi) = j.angle_range(c.target_limit);
                 (lo..=hi).contains(a)
             });
-        norm(&sub(&cyl.centre, &pose.centre_mm)) < 0.1
+        (cyl.centre - pose.centre_mm).norm() < 0.1
             && tilt.min(180.0 - tilt) <= self.cfg.grasp_angle_deg
             && in_range
     }
@@ -112,7 +109,7 @@ impl Plant {
     /// Scores a grasp of `cyl` with the gripper where it is now.
     pub fn grasp_score(&self, cyl: &Cylinder) -> GraspScore {
         let pose = self.gripper_pose();
-        let distance_mm = norm(&sub(&pose.centre_mm, &cyl.centre));
+        let distance_mm = (pose.centre_mm - cyl.centre).norm();
         // perpendicular: the cylinder axis along the gripper normal, i.e. perpendicular to
         // both the approach direction and the finger axis
         let tilt = angle_deg(&pose.normal, &cyl.axis);

@@ -8,19 +8,20 @@
 //! a pure rotation about either axis needs both pressures.
 
 use super::config::SimConfig;
-use super::vec3::{add, angle_deg, cross, norm, scale, sub, unit, V3};
+use super::geometry::{angle_deg, unit};
+use super::Vector3;
 
 /// The gripper's pose.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Pose {
     /// Gripper centre, between the fingers (mm).
-    pub centre_mm: V3,
+    pub centre_mm: Vector3<f64>,
     /// Approach direction (the gripper's XX', pointing from wrist to fingers).
-    pub approach: V3,
+    pub approach: Vector3<f64>,
     /// Finger-closing axis (YY').
-    pub finger_axis: V3,
+    pub finger_axis: Vector3<f64>,
     /// The axis a grasped cylinder must have, approach x finger axis (ZZ').
-    pub normal: V3,
+    pub normal: Vector3<f64>,
     /// Joint angles (degrees).
     pub joint_angles_deg: [f64; 5],
 }
@@ -28,17 +29,17 @@ pub struct Pose {
 impl Pose {
     /// No pose (NaN everywhere).
     pub const NONE: Pose = Pose {
-        centre_mm: [f64::NAN; 3],
-        approach: [f64::NAN; 3],
-        finger_axis: [f64::NAN; 3],
-        normal: [f64::NAN; 3],
+        centre_mm: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
+        approach: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
+        finger_axis: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
+        normal: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
         joint_angles_deg: [f64::NAN; 5],
     };
 
     /// Position (mm) and orientation (degrees: the larger of the approach and normal
     /// deviations) error of this pose against `target`.
     pub fn error_to(&self, target: &Pose) -> (f32, f32) {
-        let mm = norm(&sub(&self.centre_mm, &target.centre_mm));
+        let mm = (self.centre_mm - target.centre_mm).norm();
         let deg = angle_deg(&self.approach, &target.approach)
             .max(angle_deg(&self.normal, &target.normal));
         (mm as f32, deg as f32)
@@ -49,11 +50,11 @@ impl Pose {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Chain {
     /// Shoulder (mm).
-    pub shoulder: V3,
+    pub shoulder: Vector3<f64>,
     /// Elbow (mm).
-    pub elbow: V3,
+    pub elbow: Vector3<f64>,
     /// Wrist (mm).
-    pub wrist: V3,
+    pub wrist: Vector3<f64>,
     /// The gripper's pose.
     pub pose: Pose,
 }
@@ -61,24 +62,21 @@ pub struct Chain {
 /// Forward kinematics for joint angles `q` (radians).
 pub fn forward(cfg: &SimConfig, q: &[f64; 5]) -> Chain {
     let (c0, s0) = (q[0].cos(), q[0].sin());
-    let radial = |a: f64| -> V3 { [a.cos() * c0, a.cos() * s0, a.sin()] };
-    let shoulder = [0.0, 0.0, cfg.shoulder_height_mm];
+    let radial = |a: f64| Vector3::new(a.cos() * c0, a.cos() * s0, a.sin());
+    let shoulder = Vector3::new(0.0, 0.0, cfg.shoulder_height_mm);
     let a1 = q[1];
     let a2 = q[1] + q[2];
-    let elbow = add(&shoulder, &scale(&radial(a1), cfg.upper_arm_mm));
-    let wrist = add(&elbow, &scale(&radial(a2), cfg.forearm_mm));
+    let elbow = shoulder + radial(a1) * cfg.upper_arm_mm;
+    let wrist = elbow + radial(a2) * cfg.forearm_mm;
     let pitch = 0.5 * (q[3] + q[4]);
     let roll = 0.5 * (q[3] - q[4]);
     let approach = unit(&radial(a2 + pitch));
     // the finger axis before roll: horizontal, perpendicular to the arm's plane
-    let lateral = [-s0, c0, 0.0];
-    let up_in_plane = cross(&approach, &lateral);
-    let finger_axis = unit(&add(
-        &scale(&lateral, roll.cos()),
-        &scale(&up_in_plane, roll.sin()),
-    ));
-    let normal = unit(&cross(&approach, &finger_axis));
-    let centre = add(&wrist, &scale(&approach, cfg.hand_mm));
+    let lateral = Vector3::new(-s0, c0, 0.0);
+    let up_in_plane = approach.cross(&lateral);
+    let finger_axis = unit(&(lateral * roll.cos() + up_in_plane * roll.sin()));
+    let normal = unit(&approach.cross(&finger_axis));
+    let centre = wrist + approach * cfg.hand_mm;
     let mut deg = [0.0; 5];
     for (d, a) in deg.iter_mut().zip(q.iter()) {
         *d = a.to_degrees();
@@ -100,18 +98,14 @@ pub fn forward(cfg: &SimConfig, q: &[f64; 5]) -> Chain {
 /// The gripper lights p and q: at the centre, `light_offset_mm` either way along the normal
 /// (the axis a grasped cylinder has), so that at the pre-grasp pose they coincide with the
 /// target lights in front of the cylinder (Fig. 8.3).
-pub fn lights(cfg: &SimConfig, pose: &Pose) -> [V3; 2] {
-    let d = scale(&pose.normal, cfg.light_offset_mm);
-    [
-        add(&pose.centre_mm, &d),
-        add(&pose.centre_mm, &scale(&d, -1.0)),
-    ]
+pub fn lights(cfg: &SimConfig, pose: &Pose) -> [Vector3<f64>; 2] {
+    let d = pose.normal * cfg.light_offset_mm;
+    [pose.centre_mm + d, pose.centre_mm + d * -1.0]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vec3::{dot, norm};
 
     #[test]
     fn straight_arm_by_hand() {
@@ -141,8 +135,8 @@ mod tests {
         let one = forward(&cfg, &[0.0, 0.0, 0.0, 0.3, 0.0]).pose;
         assert!(one.approach[2] > 0.0 && one.finger_axis[2] > 0.0);
         for p in [pitch, roll, one] {
-            assert!((norm(&p.normal) - 1.0).abs() < 1e-12);
-            assert!(dot(&p.normal, &p.approach).abs() < 1e-12);
+            assert!((p.normal.norm() - 1.0).abs() < 1e-12);
+            assert!(p.normal.dot(&p.approach).abs() < 1e-12);
         }
     }
 }

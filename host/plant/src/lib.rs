@@ -12,6 +12,7 @@
 pub mod camera;
 pub mod config;
 mod error;
+pub mod geometry;
 mod grasp;
 pub mod input;
 pub mod joint;
@@ -25,7 +26,6 @@ mod readings;
 pub mod stereo;
 pub mod targets;
 mod validate;
-pub mod vec3;
 
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -39,9 +39,12 @@ pub use error::PlantError;
 pub use grasp::{Cylinder, GraspScore};
 use joint::Joint;
 pub use kinematics::{Chain, Pose};
+pub use nalgebra::Vector3;
 pub use random::uniform;
-pub use readings::{Occluder, PixelReading, PointStatus, Readings};
-use vec3::{cross, V3};
+pub use readings::{Occluder, PixelReading, Readings};
+/// A reading's status is the protocol's ([`stereo`] and [`markers`] say when the plant reports
+/// a light not detected or estimated).
+pub use trn_protocol::PointStatus;
 
 /// Servo drive feedback.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -340,11 +343,6 @@ impl Plant {
             out[k] = hi - lo;
         }
         out
-    }
-
-    /// Perpendicular unit vector helper for pictures.
-    pub fn cross(a: &V3, b: &V3) -> V3 {
-        cross(a, b)
     }
 }
 

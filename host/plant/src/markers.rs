@@ -24,8 +24,8 @@
 //!   an outlier seen by one camera only) the hidden reading stays as it is, and the
 //!   controller aborts.
 
-use super::readings::{PixelReading, PointStatus};
-use super::vec3::{add, cross, norm, scale, sub, unit, V3};
+use super::geometry::unit;
+use super::{PixelReading, PointStatus, Vector3};
 
 mod fill;
 mod fit;
@@ -48,23 +48,23 @@ pub const FAR_MOVES: f64 = 4.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Body {
     /// The centre light (mm).
-    pub centre: V3,
+    pub centre: Vector3<f64>,
     /// The unit normal, from q towards p.
-    pub normal: V3,
+    pub normal: Vector3<f64>,
 }
 
 impl Body {
     /// The markers p, q and c (mm) with the lights `d` mm either side of the centre.
-    pub fn markers(&self, d: f64) -> [V3; 3] {
-        let n = scale(&self.normal, d);
-        [add(&self.centre, &n), sub(&self.centre, &n), self.centre]
+    pub fn markers(&self, d: f64) -> [Vector3<f64>; 3] {
+        let n = self.normal * d;
+        [self.centre + n, self.centre - n, self.centre]
     }
 
     /// The body through lights `p` and `q`.
-    fn through(p: &V3, q: &V3) -> Option<Body> {
-        let n = sub(p, q);
-        (norm(&n) > 1e-6).then(|| Body {
-            centre: scale(&add(p, q), 0.5),
+    fn through(p: &Vector3<f64>, q: &Vector3<f64>) -> Option<Body> {
+        let n = p - q;
+        (n.norm() > 1e-6).then(|| Body {
+            centre: (p + q) * 0.5,
             normal: unit(&n),
         })
     }
@@ -73,23 +73,23 @@ impl Body {
     /// turned by `x[3]`, `x[4]` (radians) about two axes perpendicular to it.
     fn moved(&self, x: &[f64; 5]) -> Body {
         let (t1, t2) = tangents(&self.normal);
-        let n = add(&self.normal, &add(&scale(&t1, x[3]), &scale(&t2, x[4])));
+        let n = self.normal + (t1 * x[3] + t2 * x[4]);
         Body {
-            centre: add(&self.centre, &[x[0], x[1], x[2]]),
+            centre: self.centre + Vector3::new(x[0], x[1], x[2]),
             normal: unit(&n),
         }
     }
 }
 
 /// Two unit vectors perpendicular to unit `n` and to each other.
-fn tangents(n: &V3) -> (V3, V3) {
+fn tangents(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let axis = if n[0].abs() < 0.6 {
-        [1.0, 0.0, 0.0]
+        Vector3::new(1.0, 0.0, 0.0)
     } else {
-        [0.0, 1.0, 0.0]
+        Vector3::new(0.0, 1.0, 0.0)
     };
-    let t1 = unit(&cross(n, &axis));
-    (t1, cross(n, &t1))
+    let t1 = unit(&n.cross(&axis));
+    (t1, n.cross(&t1))
 }
 
 /// What the camera processor knows of where the markers are: the body of the trial's last
@@ -98,9 +98,9 @@ fn tangents(n: &V3) -> (V3, V3) {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Track {
     /// The centre light (mm).
-    pub centre: V3,
+    pub centre: Vector3<f64>,
     /// The normal, when known.
-    pub normal: Option<V3>,
+    pub normal: Option<Vector3<f64>>,
 }
 
 /// What the camera processor knows of where the markers are in a trial: the body of its

@@ -334,7 +334,7 @@ pub fn mjcf(cfg: &SimConfig) -> String {
     for (i, cam) in cfg.cameras.iter().enumerate() {
         let c = crate::camera::Camera::new(cam);
         let (right, down) = c.image_axes();
-        let up = [-down[0], -down[1], -down[2]];
+        let up = -down;
         let fovy = 2.0 * (0.5 * cam.resolution[1] as f64 / cam.focal_px).atan();
         let pos = cam.position_mm.map(|x| x / 1000.0);
         let _ = writeln!(
@@ -342,8 +342,8 @@ pub fn mjcf(cfg: &SimConfig) -> String {
             "    <camera name=\"camera_{i}\" pos=\"{}\" xyaxes=\"{} {}\" fovy=\"{}\" \
              resolution=\"{} {}\"/>",
             vec3(&pos),
-            vec3(&right),
-            vec3(&up),
+            vec3(&right.into()),
+            vec3(&up.into()),
             num(fovy.to_degrees()),
             cam.resolution[0],
             cam.resolution[1]
@@ -437,34 +437,30 @@ mod tests {
     use super::*;
     use crate::kinematics::{forward, lights};
     use crate::random::uniform;
-    use crate::vec3::{add, norm, sub, V3};
+    use crate::Vector3;
     use rand_core::SeedableRng;
 
     /// A rotation by `angle` about the unit `axis` applied to `v` (Rodrigues).
-    fn rotate(axis: &V3, angle: f64, v: &V3) -> V3 {
+    fn rotate(axis: &Vector3<f64>, angle: f64, v: &Vector3<f64>) -> Vector3<f64> {
         let (c, s) = (angle.cos(), angle.sin());
-        let d = axis[0] * v[0] + axis[1] * v[1] + axis[2] * v[2];
-        let x = crate::vec3::cross(axis, v);
-        [0, 1, 2].map(|i| v[i] * c + x[i] * s + axis[i] * d * (1.0 - c))
+        v * c + axis.cross(v) * s + axis * axis.dot(v) * (1.0 - c)
     }
 
     /// Every frame's origin (mm) by composing the chain's joints: the chain as data, checked
     /// here against the plant; the XML written from it is checked by MuJoCo
     /// (python/tests/test_model.py).
-    fn frames(cfg: &SimConfig, angles: &[f64; 5]) -> Vec<(&'static str, V3)> {
+    fn frames(cfg: &SimConfig, angles: &[f64; 5]) -> Vec<(&'static str, Vector3<f64>)> {
         // each link's origin and axes (columns) in the base frame
-        let mut links: Vec<(&str, V3, [V3; 3])> = vec![(
+        let mut links = vec![(
             "base_link",
-            [0.0; 3],
-            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            Vector3::zeros(),
+            [Vector3::x(), Vector3::y(), Vector3::z()],
         )];
         let mut k = 0;
         for j in chain(cfg) {
             let (_, o, r) = *links.iter().find(|l| l.0 == j.parent).expect("parent");
-            let at = |v: &V3| -> V3 {
-                [0, 1, 2].map(|i| r[0][i] * v[0] + r[1][i] * v[1] + r[2][i] * v[2])
-            };
-            let origin = add(&o, &at(&j.origin_m));
+            let at = |v: &[f64; 3]| r[0] * v[0] + r[1] * v[1] + r[2] * v[2];
+            let origin = o + at(&j.origin_m);
             let axes = match j.axis {
                 Some(a) => {
                     let world_axis = at(&a);
@@ -500,7 +496,7 @@ mod tests {
                     ("light_p", p),
                     ("light_q", l_q),
                 ] {
-                    let err = norm(&sub(&at(name), &want));
+                    let err = (at(name) - want).norm();
                     assert!(err < 1e-9, "{name} off by {err} mm at {q:?}");
                 }
             }

@@ -24,8 +24,8 @@ use trn_vision::{
 
 use super::camera::Camera;
 use super::config::PixelsConfig;
-use super::vec3::{add, cross, norm, scale, segment_distance, sub, unit, V3};
-use super::{Chain, PixelReading, Plant, PointStatus};
+use super::geometry::{segment_distance, unit};
+use super::{Chain, PixelReading, Plant, PointStatus, Vector3};
 
 /// How the lights look and how the camera processor reads them.
 #[derive(Debug, Clone, PartialEq)]
@@ -94,7 +94,7 @@ const LINK_POINTS: usize = 16;
 pub struct CaptureExtras {
     /// Each light's displacement during an exposure (mm; empty: all still), the exposure
     /// centred on the moment of the reading.
-    pub motion_mm: Vec<V3>,
+    pub motion_mm: Vec<Vector3<f64>>,
     /// Lights that do not fire in this capture (a dropout).
     pub dark: Vec<usize>,
     /// Reflections: `(light, [x, y])`, a spot as bright as the light at a point of the
@@ -108,7 +108,7 @@ impl Plant {
     pub fn pixel_scene(
         &self,
         cam: usize,
-        lights: &[V3],
+        lights: &[Vector3<f64>],
         v: &PixelVision,
     ) -> (Vec<Option<Emitter>>, Vec<Occluder>) {
         self.pixel_scene_moving(cam, lights, &[], v)
@@ -119,8 +119,8 @@ impl Plant {
     fn pixel_scene_moving(
         &self,
         cam: usize,
-        lights: &[V3],
-        motion_mm: &[V3],
+        lights: &[Vector3<f64>],
+        motion_mm: &[Vector3<f64>],
         v: &PixelVision,
     ) -> (Vec<Option<Emitter>>, Vec<Occluder>) {
         let camera = &self.cameras[cam];
@@ -130,15 +130,14 @@ impl Plant {
             .enumerate()
             .map(|(i, p)| {
                 let (u, w) = camera.project(p)?;
-                let d = norm(&sub(p, &eye));
+                let d = (p - eye).norm();
                 let (sigma, electrons) = v.spot(camera.focal_px(), d);
                 let mut e = Emitter::new([u, w], sigma, electrons);
                 if let Some(m) = motion_mm.get(i) {
-                    let half = scale(m, 0.5);
-                    if let (Some(a), Some(b)) = (
-                        camera.project(&sub(p, &half)),
-                        camera.project(&add(p, &half)),
-                    ) {
+                    let half = m * 0.5;
+                    if let (Some(a), Some(b)) =
+                        (camera.project(&(p - half)), camera.project(&(p + half)))
+                    {
                         e.motion_px = [b.0 - a.0, b.1 - a.1];
                     }
                 }
@@ -159,7 +158,11 @@ impl Plant {
     }
 
     /// The links, hand and cylinder as capsules `(a, b, radius)` (mm).
-    fn links(&self, chain: &Chain, lights: &[V3]) -> Vec<(V3, V3, f64)> {
+    fn links(
+        &self,
+        chain: &Chain,
+        lights: &[Vector3<f64>],
+    ) -> Vec<(Vector3<f64>, Vector3<f64>, f64)> {
         let r = self.cfg.link_radius_mm;
         let mut links = vec![
             (chain.shoulder, chain.elbow, r),
@@ -167,14 +170,10 @@ impl Plant {
         ];
         if self.cfg.realism.occlude_hand_and_cylinder {
             let c = &chain.pose;
-            links.push((
-                chain.wrist,
-                sub(&c.centre_mm, &scale(&c.approach, r)),
-                0.8 * r,
-            ));
+            links.push((chain.wrist, c.centre_mm - c.approach * r, 0.8 * r));
             if let Some(cyl) = &self.cylinder {
-                let half = scale(&cyl.axis, 0.5 * cyl.length);
-                let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
+                let half = cyl.axis * (0.5 * cyl.length);
+                let (a, b) = (cyl.centre - half, cyl.centre + half);
                 if lights
                     .iter()
                     .all(|p| segment_distance(p, &a, &b) > cyl.radius + 1.0)
@@ -192,7 +191,7 @@ impl Plant {
     pub fn read_by_pixels(
         &self,
         cam: usize,
-        lights: &[V3],
+        lights: &[Vector3<f64>],
         protocol: &CaptureProtocol,
         v: &PixelVision,
         seed: u64,
@@ -207,7 +206,7 @@ impl Plant {
     pub fn read_capture(
         &self,
         cam: usize,
-        lights: &[V3],
+        lights: &[Vector3<f64>],
         extras: &CaptureExtras,
         protocol: &CaptureProtocol,
         v: &PixelVision,
@@ -428,28 +427,28 @@ fn moved(shape: &Shape, by: [f64; 2]) -> Shape {
 /// Pieces whose axis passes within `clear.1` (mm) of a light of `clear.0` are left out.
 fn link_pieces(
     camera: &Camera,
-    (a, b, r): (&V3, &V3, f64),
-    clear: (&[V3], f64),
+    (a, b, r): (&Vector3<f64>, &Vector3<f64>, f64),
+    clear: (&[Vector3<f64>], f64),
     out: &mut Vec<Occluder>,
 ) {
     let eye = camera.position();
-    let axis = sub(b, a);
-    let at = |i: usize| add(a, &scale(&axis, i as f64 / LINK_POINTS as f64));
+    let axis = b - a;
+    let at = |i: usize| a + axis * (i as f64 / LINK_POINTS as f64);
     let seen: Vec<Option<([f64; 2], f64, f64)>> = (0..=LINK_POINTS)
         .map(|i| {
             let p = at(i);
             let (u, v) = camera.project(&p)?;
             // the link's half-width on the image: a point r off the axis, across the view
-            let view = sub(&p, &eye);
-            let mut across = cross(&view, &axis);
-            if norm(&across) < 1e-9 {
-                across = cross(&view, &[0.0, 0.0, 1.0]);
+            let view = p - eye;
+            let mut across = view.cross(&axis);
+            if across.norm() < 1e-9 {
+                across = view.cross(&Vector3::new(0.0, 0.0, 1.0));
             }
-            let side = add(&p, &scale(&unit(&across), r));
+            let side = p + unit(&across) * r;
             let (su, sv) = camera
                 .project(&side)
-                .or_else(|| camera.project(&sub(&p, &scale(&unit(&across), r))))?;
-            Some(([u, v], (su - u).hypot(sv - v), norm(&view) - r))
+                .or_else(|| camera.project(&(p - unit(&across) * r)))?;
+            Some(([u, v], (su - u).hypot(sv - v), view.norm() - r))
         })
         .collect();
     for (i, pair) in seen.windows(2).enumerate() {

@@ -5,10 +5,10 @@ use rand_core::RngCore;
 use trn_vision::CaptureProtocol;
 
 use super::config::Vision;
+use super::geometry::{segments_distance, unit};
 use super::pixels::{CaptureExtras, PixelVision};
 use super::random::{gaussian, uniform};
-use super::vec3::{add, scale, segments_distance, sub, unit, V3};
-use super::{kinematics, Chain, Plant};
+use super::{kinematics, Chain, Plant, PointStatus, Vector3};
 
 /// Which of the plant's lights a reading is of.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,24 +19,6 @@ enum Marks {
     GripperCentre,
     /// The light at the cylinder's centre.
     CylinderCentre,
-}
-
-/// Why a light has no reading.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PointStatus {
-    /// A valid centroid.
-    Valid,
-    /// Outside the image or behind the camera.
-    OutOfView,
-    /// Hidden behind the arm.
-    Occluded,
-    /// Not detected: a dropout, or two readings of one light that disagree
-    /// ([`super::stereo`]).
-    NotDetected,
-    /// Hidden from this camera and estimated by the camera processor from the readings it
-    /// has and where the gripper's markers were one move ago ([`super::markers`]): a best
-    /// guess, not a reading (its error is not bounded by the centroid noise).
-    Estimated,
 }
 
 /// What hides a light from a camera ([`Plant::hidden_by`]): the simulator's ground truth,
@@ -117,11 +99,11 @@ impl Plant {
     /// up to just short of the gripper centre (the centre light sits at its end) and the
     /// cylinder, unless `p` is inside it (its own centre, a gripper light on the fingers that
     /// hold it). The first in that order.
-    pub fn hidden_by(&self, cam: usize, p: &V3, chain: &Chain) -> Option<Occluder> {
+    pub fn hidden_by(&self, cam: usize, p: &Vector3<f64>, chain: &Chain) -> Option<Occluder> {
         let eye = self.cameras.get(cam)?.position();
         let r = self.cfg.link_radius_mm;
-        let along = unit(&sub(p, &eye));
-        let near = sub(p, &scale(&along, 2.0 * r)); // stop short of the light itself
+        let along = unit(&(p - eye));
+        let near = p - along * (2.0 * r); // stop short of the light itself
         let links = [
             (Occluder::UpperArm, &chain.shoulder, &chain.elbow),
             (Occluder::Forearm, &chain.elbow, &chain.wrist),
@@ -135,19 +117,19 @@ impl Plant {
             return None;
         }
         let c = &chain.pose;
-        let hand_end = sub(&c.centre_mm, &scale(&c.approach, r));
+        let hand_end = c.centre_mm - c.approach * r;
         if segments_distance(&eye, &near, &chain.wrist, &hand_end) < 0.8 * r {
             return Some(Occluder::Hand);
         }
         let cyl = self.cylinder.as_ref()?;
-        let half = scale(&cyl.axis, 0.5 * cyl.length);
-        let (a, b) = (sub(&cyl.centre, &half), add(&cyl.centre, &half));
+        let half = cyl.axis * (0.5 * cyl.length);
+        let (a, b) = (cyl.centre - half, cyl.centre + half);
         (segments_distance(p, p, &a, &b) > cyl.radius + 1.0
             && segments_distance(&eye, &near, &a, &b) < cyl.radius)
             .then_some(Occluder::Cylinder)
     }
 
-    fn read(&mut self, cam: usize, p: &V3, noisy: bool, chain: &Chain) -> PixelReading {
+    fn read(&mut self, cam: usize, p: &Vector3<f64>, noisy: bool, chain: &Chain) -> PixelReading {
         let invalid = |status| PixelReading {
             x: f64::NAN,
             y: f64::NAN,
@@ -230,7 +212,7 @@ impl Plant {
     }
 
     /// The lights of `marks` where the arm is in `chain`.
-    fn marks(&self, marks: Marks, chain: &Chain) -> Vec<V3> {
+    fn marks(&self, marks: Marks, chain: &Chain) -> Vec<Vector3<f64>> {
         match marks {
             Marks::GripperLights => kinematics::lights(&self.cfg, &chain.pose).to_vec(),
             Marks::GripperCentre => vec![chain.pose.centre_mm],
@@ -243,7 +225,11 @@ impl Plant {
     /// this moment with the arm moving as it does now; a light fails to fire and a reflection
     /// of it appears somewhere in the image at the rates of `[realism]`. A capture the
     /// camera processor cannot read (which a valid configuration never gives) reads nothing.
-    fn observe_on_pixels(&mut self, marks: Marks, lights: &[V3]) -> [Vec<PixelReading>; 2] {
+    fn observe_on_pixels(
+        &mut self,
+        marks: Marks,
+        lights: &[Vector3<f64>],
+    ) -> [Vec<PixelReading>; 2] {
         let v = PixelVision::from_config(&self.cfg.pixels);
         let exposure_s = 1e-3 * self.cfg.pixels.exposure_ms;
         let q = self.joint_angles();
@@ -255,7 +241,7 @@ impl Plant {
         }
         let before = self.marks(marks, &kinematics::forward(&self.cfg, &qa));
         let after = self.marks(marks, &kinematics::forward(&self.cfg, &qb));
-        let motion_mm: Vec<V3> = after.iter().zip(&before).map(|(b, a)| sub(b, a)).collect();
+        let motion_mm: Vec<Vector3<f64>> = after.iter().zip(&before).map(|(b, a)| b - a).collect();
         let nothing = || {
             vec![
                 PixelReading {

@@ -9,10 +9,7 @@
 //! not detected. Out of view and occluded are geometry: reading again changes nothing.
 
 use super::camera::Camera;
-use super::readings::{PixelReading, PointStatus, Readings};
-use super::vec3::{add, cross, dot, norm, scale, sub, V3};
-
-use super::Plant;
+use super::{PixelReading, Plant, PointStatus, Readings, Vector3};
 
 /// New frames a capture may take when a light is not detected or inconsistent. Each costs a
 /// frame (tens of milliseconds), not a move; four frames in a row with a random fault on the
@@ -38,24 +35,25 @@ pub fn reprojection_error(cams: &[Camera; 2], a: (f64, f64), b: (f64, f64)) -> O
 /// largest reprojection error (pixels): midpoint triangulation of the pinhole rays, then
 /// Gauss-Newton on the full camera model. `None` when the rays are parallel or the point
 /// leaves the images.
-pub fn triangulate(cams: &[Camera; 2], a: (f64, f64), b: (f64, f64)) -> Option<(V3, f64)> {
+pub fn triangulate(
+    cams: &[Camera; 2],
+    a: (f64, f64),
+    b: (f64, f64),
+) -> Option<(Vector3<f64>, f64)> {
     let (o0, o1) = (cams[0].position(), cams[1].position());
     let (d0, d1) = (cams[0].ray(a.0, a.1), cams[1].ray(b.0, b.1));
     // closest points of the two rays
-    let w = sub(&o0, &o1);
-    let (bb, d, e) = (dot(&d0, &d1), dot(&d0, &w), dot(&d1, &w));
+    let w = o0 - o1;
+    let (bb, d, e) = (d0.dot(&d1), d0.dot(&w), d1.dot(&w));
     let den = 1.0 - bb * bb;
-    if den < 1e-9 || norm(&cross(&d0, &d1)) < 1e-9 {
+    if den < 1e-9 || d0.cross(&d1).norm() < 1e-9 {
         return None;
     }
     let s = (bb * e - d) / den;
     let t = (e - bb * d) / den;
-    let mut x = scale(
-        &add(&add(&o0, &scale(&d0, s)), &add(&o1, &scale(&d1, t))),
-        0.5,
-    );
+    let mut x = ((o0 + d0 * s) + (o1 + d1 * t)) * 0.5;
     let obs = [a.0, a.1, b.0, b.1];
-    let residual = |x: &V3| -> Option<[f64; 4]> {
+    let residual = |x: &Vector3<f64>| -> Option<[f64; 4]> {
         let (p, q) = (cams[0].project(x)?, cams[1].project(x)?);
         Some([p.0 - obs[0], p.1 - obs[1], q.0 - obs[2], q.1 - obs[3]])
     };
@@ -86,7 +84,7 @@ pub(crate) fn point_of<const K: usize>(
     cams: &[Camera; 2],
     r: &Readings<K>,
     i: usize,
-) -> Option<V3> {
+) -> Option<Vector3<f64>> {
     let (a, b) = (r.points.get(2 * i)?, r.points.get(2 * i + 1)?);
     if a.status != PointStatus::Valid || b.status != PointStatus::Valid {
         return None;

@@ -139,11 +139,11 @@ pub fn validate(c: &SimConfig) -> Result<(), Error> {
             return Err(err(&key("look_at_mm"), "different from position_mm"));
         }
         // the camera must see the middle of the workspace
-        let mid = [
+        let mid = crate::Vector3::new(
             c.upper_arm_mm * 0.9,
             0.0,
             c.shoulder_height_mm + 0.2 * c.upper_arm_mm,
-        ];
+        );
         if Camera::new(cam).project(&mid).is_none() {
             return Err(Error::Config(format!(
                 "{} makes the camera see nothing of the workspace",

@@ -115,17 +115,16 @@ fn describe(plant: &mut Plant, r: &TrialRecord, tally: &mut BTreeMap<String, usi
         (0..2).find(|&k| last.fill.seen[4 + k] == Some(PointStatus::Valid)),
     ) {
         (Some(cyl), Some(cam)) => {
-            use trn_plant::vec3::{dot, norm, scale, sub, unit};
             let cams = &plant.config().cameras;
-            let eye = cams[cam].position_mm;
+            let eye = trn_plant::Vector3::from(cams[cam].position_mm);
             let c = last.pose.centre_mm;
-            let ray = unit(&sub(&c, &eye));
-            let e = sub(&c, &cyl.centre);
-            let along = dot(&e, &ray);
-            let across = norm(&sub(&e, &scale(&ray, along)));
+            let ray = trn_plant::geometry::unit(&(c - eye));
+            let e = c - cyl.centre;
+            let along = e.dot(&ray);
+            let across = (e - ray * along).norm();
             format!(
                 "c-C {:.0} mm: along ray{cam} {along:.0}, across {across:.0}",
-                norm(&e)
+                e.norm()
             )
         }
         _ => "-".into(),
@@ -202,8 +201,7 @@ fn main() {
                     .iter()
                     .find(|c| matches!(c.sight, Sight::Centre { .. }))?;
                 let cyl = r.target.cylinder?;
-                let d =
-                    trn_plant::vec3::norm(&trn_plant::vec3::sub(&cap.pose.centre_mm, &cyl.centre));
+                let d = (cap.pose.centre_mm - cyl.centre).norm();
                 let hidden = cap.fill.seen[4..]
                     .iter()
                     .any(|s| *s != Some(PointStatus::Valid));
@@ -247,9 +245,7 @@ fn main() {
                 let cyl = r
                     .target
                     .cylinder
-                    .map(|c| {
-                        trn_plant::vec3::norm(&trn_plant::vec3::sub(&cap.pose.centre_mm, &c.centre))
-                    })
+                    .map(|c| (cap.pose.centre_mm - c.centre).norm())
                     .unwrap_or(f64::NAN);
                 println!(
                     "    TRACE {} | c-C {:.0} mm | seen {:?}",

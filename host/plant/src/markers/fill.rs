@@ -4,10 +4,9 @@
 
 use super::fit::{Problem, Reading};
 use super::{Body, Fill, NoFit, Track, Tracker, FAR_MOVES, PRIOR_MOVE_MM};
-use crate::readings::{PixelReading, PointStatus, Readings};
+use crate::geometry::unit;
 use crate::stereo::{point_of, seen, tolerance_px, RECAPTURES};
-use crate::vec3::{add, dot, norm, scale, sub, unit, V3};
-use crate::Plant;
+use crate::{PixelReading, Plant, PointStatus, Readings, Vector3};
 
 /// The smallest noise (pixels) the fit weighs its residuals by: the fit works in noise units,
 /// so a camera configured without noise (`pixel_noise_px = 0`, exact readings) would divide
@@ -21,10 +20,10 @@ fn fit_sigma_px(pixel_noise_px: f64) -> f64 {
 
 /// Where the ray from `o` along unit `u` meets the sphere of radius `r` about `s`: both
 /// points in front of the camera, or the ray's closest point when it misses (noise).
-fn ray_sphere(o: &V3, u: &V3, s: &V3, r: f64) -> Vec<V3> {
-    let w = sub(o, s);
-    let b = dot(u, &w);
-    let disc = b * b - (dot(&w, &w) - r * r);
+fn ray_sphere(o: &Vector3<f64>, u: &Vector3<f64>, s: &Vector3<f64>, r: f64) -> Vec<Vector3<f64>> {
+    let w = o - s;
+    let b = u.dot(&w);
+    let disc = b * b - (w.dot(&w) - r * r);
     let ts = if disc >= 0.0 {
         vec![-b - disc.sqrt(), -b + disc.sqrt()]
     } else {
@@ -32,7 +31,7 @@ fn ray_sphere(o: &V3, u: &V3, s: &V3, r: f64) -> Vec<V3> {
     };
     ts.into_iter()
         .filter(|t| *t > 0.0)
-        .map(|t| add(o, &scale(u, t)))
+        .map(|t| o + u * t)
         .collect()
 }
 
@@ -44,7 +43,7 @@ impl Plant {
     fn starts(
         &self,
         readings: &[Reading],
-        tri: &[Option<V3>; 3],
+        tri: &[Option<Vector3<f64>>; 3],
         track: Option<&Track>,
     ) -> Vec<Body> {
         let d = self.cfg.light_offset_mm;
@@ -66,36 +65,40 @@ impl Plant {
                 for y in ray_sphere(&o, &u, x, gap) {
                     // the normal from the marker further along it to the other
                     let n = if along[m] > along[s.marker] {
-                        sub(x, &y)
+                        x - y
                     } else {
-                        sub(&y, x)
+                        y - x
                     };
-                    if norm(&n) > 1e-6 {
+                    if n.norm() > 1e-6 {
                         let normal = unit(&n);
-                        let centre = sub(x, &scale(&normal, along[m]));
+                        let centre = x - normal * along[m];
                         out.push(Body { centre, normal });
                     }
                 }
             }
         }
         if let Some(t) = track {
-            let normal = t.normal.unwrap_or([0.0, 0.0, 1.0]);
+            let normal = t.normal.unwrap_or(Vector3::new(0.0, 0.0, 1.0));
             out.push(Body {
                 centre: t.centre,
                 normal,
             });
             for s in readings.iter().filter(|s| s.marker == 2) {
                 let (o, u) = ray(s);
-                let centre = add(&o, &scale(&u, dot(&sub(&t.centre, &o), &u)));
+                let centre = o + u * (t.centre - o).dot(&u);
                 out.push(Body { centre, normal });
             }
         }
         if out.is_empty() {
             // a triangulated marker and nothing else: any direction, the fit turns it
             if let Some((m, x)) = tri.iter().enumerate().find_map(|(m, x)| x.map(|x| (m, x))) {
-                for normal in [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]] {
+                for normal in [
+                    Vector3::new(0.0, 0.0, 1.0),
+                    Vector3::new(0.0, 1.0, 0.0),
+                    Vector3::new(1.0, 0.0, 0.0),
+                ] {
                     out.push(Body {
-                        centre: sub(&x, &scale(&normal, along[m])),
+                        centre: x - normal * along[m],
                         normal,
                     });
                 }
@@ -220,7 +223,7 @@ impl Plant {
             from.extend(fitted);
             from.push(Body {
                 centre: t.centre,
-                normal: t.normal.unwrap_or([0.0, 0.0, 1.0]),
+                normal: t.normal.unwrap_or(Vector3::new(0.0, 0.0, 1.0)),
             });
             let best = prior
                 .best(&from)
@@ -231,7 +234,7 @@ impl Plant {
             // where it is, however far the move (an untrained network's moves can be
             // hundreds of millimetres)
             let anchored = tri.iter().any(Option::is_some);
-            let moved = best.map(|b| norm(&sub(&b.centre, &t.centre)));
+            let moved = best.map(|b| (b.centre - t.centre).norm());
             match moved {
                 Some(mm) if mm > FAR_MOVES * PRIOR_MOVE_MM && !anchored => {
                     fill.no_fit = Some(NoFit::Far(mm));

@@ -6,7 +6,6 @@ use nalgebra::{SMatrix, SVector};
 
 use super::{Body, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
 use crate::camera::Camera;
-use crate::vec3::sub;
 
 /// One valid reading: marker (0 p, 1 q, 2 c), camera, pixel.
 #[derive(Debug, Clone, Copy)]
@@ -36,9 +35,9 @@ impl Problem<'_> {
             r.extend([(u - s.uv.0) / self.sigma, (v - s.uv.1) / self.sigma]);
         }
         if let Some(t) = &self.prior {
-            r.extend(sub(&b.centre, &t.centre).map(|x| x / PRIOR_MOVE_MM));
+            r.extend((b.centre - t.centre).map(|x| x / PRIOR_MOVE_MM).iter());
             if let Some(n) = &t.normal {
-                r.extend(sub(&b.normal, n).map(|x| x / PRIOR_TURN_RAD));
+                r.extend((b.normal - n).map(|x| x / PRIOR_TURN_RAD).iter());
             }
         }
         Some(r)

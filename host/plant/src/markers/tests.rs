@@ -9,7 +9,7 @@ use crate::stereo::tolerance_px;
 use crate::{kinematics, Plant, SimConfig};
 
 /// A reading of `x` in camera `cam` (noise-free), or hidden.
-fn reading(plant: &Plant, x: &V3, cam: usize, seen: bool) -> PixelReading {
+fn reading(plant: &Plant, x: &Vector3<f64>, cam: usize, seen: bool) -> PixelReading {
     let (u, v) = plant.cameras[cam].project(x).expect("in view");
     if seen {
         PixelReading {
@@ -27,7 +27,7 @@ fn reading(plant: &Plant, x: &V3, cam: usize, seen: bool) -> PixelReading {
 }
 
 /// A pose whose three markers both cameras have in view, the markers p, q, c (mm).
-fn pose(plant: &mut Plant) -> [V3; 3] {
+fn pose(plant: &mut Plant) -> [Vector3<f64>; 3] {
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7);
     loop {
         let p = plant.random_pressures(&mut rng);
@@ -45,7 +45,11 @@ fn pose(plant: &mut Plant) -> [V3; 3] {
 }
 
 /// Lights p, q and centre c with `seen[marker][cam]`.
-fn readings(plant: &Plant, m: &[V3; 3], seen: [[bool; 2]; 3]) -> (Readings<4>, Readings<2>) {
+fn readings(
+    plant: &Plant,
+    m: &[Vector3<f64>; 3],
+    seen: [[bool; 2]; 3],
+) -> (Readings<4>, Readings<2>) {
     let lights = Readings {
         points: core::array::from_fn(|k| reading(plant, &m[k / 2], k % 2, seen[k / 2][k % 2])),
     };
@@ -56,20 +60,20 @@ fn readings(plant: &Plant, m: &[V3; 3], seen: [[bool; 2]; 3]) -> (Readings<4>, R
 }
 
 /// A tracker whose last body is the true one moved `by` (mm).
-fn tracker(m: &[V3; 3], by: &V3) -> Tracker {
+fn tracker(m: &[Vector3<f64>; 3], by: &Vector3<f64>) -> Tracker {
     Tracker {
         last: Some(Track {
-            centre: add(&m[2], by),
-            normal: Some(unit(&sub(&m[0], &m[1]))),
+            centre: m[2] + by,
+            normal: Some(unit(&(m[0] - m[1]))),
         }),
         ..Tracker::default()
     }
 }
 
 /// A move of `mm` at right angles to both cameras' rays to `x`.
-fn across(plant: &Plant, x: &V3, mm: f64) -> V3 {
-    let ray = |cam: usize| unit(&sub(x, &plant.cameras[cam].position()));
-    scale(&unit(&cross(&ray(0), &ray(1))), mm)
+fn across(plant: &Plant, x: &Vector3<f64>, mm: f64) -> Vector3<f64> {
+    let ray = |cam: usize| unit(&(x - plant.cameras[cam].position()));
+    unit(&ray(0).cross(&ray(1))) * mm
 }
 
 /// A marker seen by both cameras passed the stereo check: it anchors the body however
@@ -97,7 +101,7 @@ fn a_marker_seen_by_both_cameras_anchors_an_estimate_after_a_long_move() {
         let off = (a.x - b.x).hypot(a.y - b.y);
         assert!(off <= tol, "{off} px off: {l:?}");
     }
-    assert!(norm(&sub(&t.last.unwrap().centre, &m[2])) < 1.0, "{t:?}");
+    assert!((t.last.unwrap().centre - m[2]).norm() < 1.0, "{t:?}");
 
     // every marker in camera 0 only: nothing anchors them
     let only0 = [[true, false]; 3];
@@ -107,7 +111,7 @@ fn a_marker_seen_by_both_cameras_anchors_an_estimate_after_a_long_move() {
     assert!(l.points[1].status == PointStatus::Occluded);
     assert!(l.points[3].status == PointStatus::Occluded);
     let (mut l, mut c) = readings(&plant, &m, only0);
-    let near = tracker(&m, &[0.0; 3]);
+    let near = tracker(&m, &Vector3::zeros());
     let fill = plant.fill_markers(&mut l, &mut c, &[0, 1], &mut near.clone());
     assert_eq!(fill.no_fit, None, "{fill:?}");
     assert_eq!(fill.estimated, 2, "{fill:?}");
@@ -123,7 +127,7 @@ fn a_noise_free_camera_fills_a_hidden_light() {
     let m = pose(&mut plant);
     // q hidden from camera 1 only: p and c seen by both, the track where the arm is
     let (mut l, mut c) = readings(&plant, &m, [[true, true], [true, false], [true, true]]);
-    let fill = plant.fill_markers(&mut l, &mut c, &[0, 1], &mut tracker(&m, &[0.0; 3]));
+    let fill = plant.fill_markers(&mut l, &mut c, &[0, 1], &mut tracker(&m, &Vector3::zeros()));
     assert_eq!(fill.no_fit, None, "{fill:?}");
     assert_eq!(fill.filled, 1, "{fill:?}");
     let truth = readings(&plant, &m, [[true; 2]; 3]).0;

@@ -77,13 +77,7 @@ pub enum Served {
 pub fn points_of<const K: usize>(r: &Readings<K>) -> [PixelPoint; 4] {
     let mut points = [PixelPoint::UNUSED; 4];
     for (p, r) in points.iter_mut().zip(r.points.iter()) {
-        let status = match r.status {
-            crate::PointStatus::Valid => proto::PointStatus::Valid,
-            crate::PointStatus::OutOfView => proto::PointStatus::OutOfView,
-            crate::PointStatus::Occluded => proto::PointStatus::Occluded,
-            crate::PointStatus::NotDetected => proto::PointStatus::NotDetected,
-            crate::PointStatus::Estimated => proto::PointStatus::Estimated,
-        };
+        let status = r.status;
         let located = matches!(
             status,
             proto::PointStatus::Valid | proto::PointStatus::Estimated
@@ -272,12 +266,12 @@ mod tests {
                 crate::PixelReading {
                     x: f64::NAN,
                     y: f64::NAN,
-                    status: crate::PointStatus::Occluded,
+                    status: proto::PointStatus::Occluded,
                 },
                 crate::PixelReading {
                     x: f64::NAN,
                     y: f64::NAN,
-                    status: crate::PointStatus::OutOfView,
+                    status: proto::PointStatus::OutOfView,
                 },
             ],
         };

@@ -1,11 +1,11 @@
 use super::*;
-use crate::vec3::{add, cross, norm, scale, sub, unit};
+use crate::geometry::unit;
 use crate::{kinematics, SimConfig};
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// The gripper's lights p, q and c.
-fn gripper_lights(plant: &Plant) -> Vec<V3> {
+fn gripper_lights(plant: &Plant) -> Vec<Vector3<f64>> {
     let pose = plant.gripper_pose();
     let [p, q] = kinematics::lights(plant.config(), &pose);
     vec![p, q, pose.centre_mm]
@@ -97,12 +97,12 @@ fn a_light_behind_a_link_is_refused_and_one_beside_it_read() {
     for n in 0..20 {
         plant.move_to_random_joints(&mut rng, 1);
         let chain = plant.chain();
-        let mid = scale(&add(&chain.elbow, &chain.wrist), 0.5);
+        let mid = (chain.elbow + chain.wrist) * 0.5;
         for cam in 0..2 {
             let eye = plant.cameras[cam].position();
-            let ray = unit(&sub(&mid, &eye));
+            let ray = unit(&(mid - eye));
             // 60 mm behind the forearm's axis, on the camera's ray through it
-            let behind = add(&mid, &scale(&ray, 2.0 * r + 60.0));
+            let behind = mid + ray * (2.0 * r + 60.0);
             if plant.cameras[cam].project(&behind).is_some()
                 && plant.hidden_by(cam, &behind, &chain).is_some()
             {
@@ -115,8 +115,8 @@ fn a_light_behind_a_link_is_refused_and_one_beside_it_read() {
                 );
             }
             // the same distance behind, but 3 radii aside across the forearm
-            let across = unit(&cross(&ray, &sub(&chain.wrist, &chain.elbow)));
-            let beside = add(&behind, &scale(&across, 3.0 * r));
+            let across = unit(&ray.cross(&(chain.wrist - chain.elbow)));
+            let beside = behind + across * (3.0 * r);
             if let Some((u, w)) = plant.cameras[cam].project(&beside) {
                 if plant.hidden_by(cam, &beside, &chain).is_none() {
                     beside_tried += 1;
@@ -135,14 +135,14 @@ fn a_light_behind_a_link_is_refused_and_one_beside_it_read() {
 
 /// A plant at a random pose and two lights near the gripper centre whose projections in
 /// camera 0 lie `gap_px` apart (across the camera's view).
-fn pair_apart(plant: &Plant, gap_px: f64) -> ([V3; 2], [(f64, f64); 2]) {
+fn pair_apart(plant: &Plant, gap_px: f64) -> ([Vector3<f64>; 2], [(f64, f64); 2]) {
     let c = plant.gripper_pose().centre_mm;
     let cam = &plant.cameras[0];
     let eye = cam.position();
-    let d = norm(&sub(&c, &eye));
+    let d = (c - eye).norm();
     // a millimetre across the view moves the image by focal / distance pixels
-    let across = unit(&cross(&sub(&c, &eye), &[0.0, 0.0, 1.0]));
-    let q = add(&c, &scale(&across, gap_px * d / cam.focal_px()));
+    let across = unit(&(c - eye).cross(&Vector3::z()));
+    let q = c + across * (gap_px * d / cam.focal_px());
     let (pc, pq) = (cam.project(&c).unwrap(), cam.project(&q).unwrap());
     ([c, q], [pc, pq])
 }
@@ -248,13 +248,13 @@ fn a_light_moving_during_the_exposure_is_read_at_its_mid_exposure_or_refused() {
     let (lights, proj) = pair_apart(&plant, 40.0);
     let cam = &plant.cameras[0];
     let eye = cam.position();
-    let mm_per_px = norm(&sub(&lights[0], &eye)) / cam.focal_px();
-    let across = unit(&cross(&sub(&lights[0], &eye), &[0.0, 0.0, 1.0]));
+    let mm_per_px = (lights[0] - eye).norm() / cam.focal_px();
+    let across = unit(&(lights[0] - eye).cross(&Vector3::z()));
     let protocol = CaptureProtocol::sequential(2).unwrap();
     let v = PixelVision::default();
     let read = |smear_px: f64| {
         let extras = CaptureExtras {
-            motion_mm: vec![scale(&across, smear_px * mm_per_px), [0.0; 3]],
+            motion_mm: vec![across * (smear_px * mm_per_px), Vector3::zeros()],
             ..CaptureExtras::default()
         };
         plant
