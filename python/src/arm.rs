@@ -434,13 +434,7 @@ impl Arm {
         let d = PyDict::new(py);
         // each point a list [x, y, z]
         let xyz = <[f64; 3]>::from;
-        let links = [
-            Vector3::zeros(),
-            chain.shoulder,
-            chain.elbow,
-            chain.wrist,
-            chain.pose.centre_mm,
-        ];
+        let links = chain.links();
         d.set_item("links", links.map(xyz))?;
         d.set_item("lights", lights(&s.cfg, &chain.pose).map(xyz))?;
         let t = forward(&s.cfg, &s.target.pose.joint_angles_deg.map(f64::to_radians));

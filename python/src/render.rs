@@ -3,7 +3,7 @@
 //! target (rings). A small software rasteriser: the binding carries no plotting library.
 
 use trn_plant::camera::Camera;
-use trn_plant::{Chain, SimConfig, Vector3};
+use trn_plant::{Chain, SimConfig};
 
 /// What a picture shows.
 pub struct Scene<'a> {
@@ -102,13 +102,7 @@ fn camera(scene: &Scene, cam: usize, s: f64) -> Image {
         (c.resolution[1] as f64 / s).ceil() as usize,
     );
     let ch = &scene.chain;
-    let joints = [
-        Vector3::zeros(),
-        ch.shoulder,
-        ch.elbow,
-        ch.wrist,
-        ch.pose.centre_mm,
-    ];
+    let joints = ch.links();
     // each link sampled along its length: what is in view is drawn, the rest clipped
     let radius = (scene.cfg.link_radius_mm / 4.0).clamp(2.0, 8.0) / s.sqrt();
     for pair in joints.windows(2) {

@@ -79,13 +79,26 @@ pub fn run_with<S: Suite>(
             }
             resume = Some(state);
         } else if !spec.allow_config_change {
-            // a checkpoint trained on another plant (its `.sim` says which) is refused
-            if let Ok(other) = sim_state::read_plant_config(&beside) {
-                if other != spec.plant {
+            // a checkpoint trained on another plant (its `.sim` says which) is refused; one
+            // whose `.sim` is missing or unreadable is used, and the user told that its plant
+            // could not be checked (the checkpoint itself holds the controller, not the plant)
+            match sim_state::read_plant_config(&beside) {
+                Ok(other) if other != spec.plant => {
                     return Err(LabError::Usage(format!(
                         "checkpoint {} was trained on another plant than this run's (its .sim says so); pass --allow-config-change to use it on this one",
                         p.display()
                     )));
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    let why = match beside.exists() {
+                        true => format!("its simulator state does not read ({e})"),
+                        false => format!("no simulator state beside it ({})", beside.display()),
+                    };
+                    observer.notice(&format!(
+                        "checkpoint {}: {why}, so the plant it was trained on is not known and not checked against this run's",
+                        p.display()
+                    ));
                 }
             }
         }

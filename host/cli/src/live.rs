@@ -16,7 +16,7 @@ use trn_bench::records::{Phase, TrialRecord};
 use trn_bench::{metrics, scoring, LabError, Observer};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::nodes::Sight;
-use trn_plant::{Readings, SimConfig, Vector3};
+use trn_plant::{Readings, SimConfig};
 
 use crate::{CliError, Result};
 
@@ -159,13 +159,7 @@ impl LiveStream {
             .map(|c| {
                 let q = c.pose.joint_angles_deg.map(f64::to_radians);
                 let chain = forward(&self.cfg, &q);
-                let links = [
-                    Vector3::zeros(),
-                    chain.shoulder,
-                    chain.elbow,
-                    chain.wrist,
-                    chain.pose.centre_mm,
-                ];
+                let links = chain.links();
                 let (seen, target, errs) = match &c.sight {
                     Sight::Lights { noisy, truth } => (
                         pixels(noisy),

@@ -8,7 +8,7 @@ use crate::plot::{fonts, side_legend, with_legend, Mark};
 
 use trn_plant::joint::Joint;
 use trn_plant::kinematics::{forward, lights};
-use trn_plant::{Plant, SimConfig, Vector3};
+use trn_plant::{Plant, SimConfig};
 
 type R = Result<(), Box<dyn std::error::Error>>;
 
@@ -74,13 +74,7 @@ pub fn arm(plant: &mut Plant, path: &Path) -> R {
     let chain = forward(&cfg, &plant.joint_angles());
     let cyl = plant.place_cylinder();
     let l = lights(&cfg, &chain.pose);
-    let links = [
-        Vector3::zeros(),
-        chain.shoulder,
-        chain.elbow,
-        chain.wrist,
-        chain.pose.centre_mm,
-    ];
+    let links = chain.links();
     let half = cyl.axis * (cyl.length / 2.0);
     let cyl_ends = [cyl.centre + half, cyl.centre - half];
     fonts();

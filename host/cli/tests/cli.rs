@@ -146,10 +146,27 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
         "the by-move table: {stdout}"
     );
     let out = trn(&["grasp", "--checkpoint-in", c, "--grasps", "2", "--quiet"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("not known"), "its .sim is beside it: {err}");
+    // without its .sim, the plant the checkpoint was trained on cannot be checked: the run
+    // goes on and says so
+    std::fs::remove_file(format!("{c}.sim")).unwrap();
+    let eval = [
+        "eval",
+        "--checkpoint-in",
+        c,
+        "--eval-targets",
+        "1",
+        "--quiet",
+    ];
+    let out = trn(&[&eval[..], &["--config", "ideal"]].concat());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        err.contains("no simulator state beside it")
+            && err.contains("the plant it was trained on is not known"),
+        "{err}"
     );
 }
 

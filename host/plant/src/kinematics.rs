@@ -59,6 +59,20 @@ pub struct Chain {
     pub pose: Pose,
 }
 
+impl Chain {
+    /// The arm as a polyline (mm): the base's origin, the shoulder, the elbow, the wrist and
+    /// the gripper's centre (what the pictures, the live view and the renderer draw).
+    pub fn links(&self) -> [Vector3<f64>; 5] {
+        [
+            Vector3::zeros(),
+            self.shoulder,
+            self.elbow,
+            self.wrist,
+            self.pose.centre_mm,
+        ]
+    }
+}
+
 /// Forward kinematics for joint angles `q` (radians).
 pub fn forward(cfg: &SimConfig, q: &[f64; 5]) -> Chain {
     let (c0, s0) = (q[0].cos(), q[0].sin());
