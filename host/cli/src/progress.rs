@@ -1,7 +1,8 @@
 //! What the command line shows while a run goes on, and how it is interrupted: a progress
-//! bar with the time left on a terminal (nothing off one), and SIGINT/SIGTERM. The first
-//! signal asks the run to stop at the next trial boundary (it then writes what it did, marked
-//! interrupted); a second one ends the process at once (exit 130 or 143).
+//! bar with the time left on a terminal (nothing off one), and SIGINT/SIGTERM/SIGHUP (a
+//! closed terminal). The first signal asks the run to stop at the next trial boundary (it
+//! then writes what it did, marked interrupted); a second one ends the process at once (exit
+//! 130, 143 or 129).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -14,17 +15,18 @@ use trn_bench::Observer;
 pub struct Interrupts {
     int: Arc<AtomicBool>,
     term: Arc<AtomicBool>,
+    hup: Arc<AtomicBool>,
 }
 
 impl Interrupts {
-    /// Installs the handlers: the first SIGINT/SIGTERM sets its flag, a second one exits
-    /// at once with 128 + the signal number.
+    /// Installs the handlers: the first SIGINT/SIGTERM/SIGHUP sets its flag, a second one
+    /// exits at once with 128 + the signal number.
     pub fn install() -> std::io::Result<Interrupts> {
-        use signal_hook::consts::{SIGINT, SIGTERM};
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
         use signal_hook::flag;
         let i = Interrupts::default();
         let any = Arc::new(AtomicBool::new(false));
-        for (sig, mine) in [(SIGINT, &i.int), (SIGTERM, &i.term)] {
+        for (sig, mine) in [(SIGINT, &i.int), (SIGTERM, &i.term), (SIGHUP, &i.hup)] {
             // registered first: runs before the flag below is set by this same signal
             flag::register_conditional_shutdown(sig, 128 + sig, any.clone())?;
             flag::register(sig, any.clone())?;
@@ -35,18 +37,18 @@ impl Interrupts {
 
     /// True once a signal came.
     pub fn requested(&self) -> bool {
-        self.int.load(Ordering::Relaxed) || self.term.load(Ordering::Relaxed)
+        [&self.int, &self.term, &self.hup]
+            .iter()
+            .any(|f| f.load(Ordering::Relaxed))
     }
 
-    /// The exit code of an interrupted run: 130 after SIGINT, 143 after SIGTERM.
+    /// The exit code of an interrupted run: 130 after SIGINT, 143 after SIGTERM, 129 after
+    /// SIGHUP.
     pub fn exit_code(&self) -> Option<u8> {
-        if self.int.load(Ordering::Relaxed) {
-            Some(130)
-        } else if self.term.load(Ordering::Relaxed) {
-            Some(143)
-        } else {
-            None
-        }
+        [(&self.int, 130), (&self.term, 143), (&self.hup, 129)]
+            .into_iter()
+            .find(|(f, _)| f.load(Ordering::Relaxed))
+            .map(|(_, code)| code)
     }
 }
 

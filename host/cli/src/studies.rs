@@ -1,7 +1,7 @@
 //! What the command line shows while a study runs, and how it is interrupted: on a
 //! terminal one bar over every trial of the study with the time left, and a line per
 //! finished run above it; off a terminal a line per finished run with the time left, and a
-//! line at least every minute while long runs go on. The first SIGINT/SIGTERM lets the runs
+//! line at least every minute while long runs go on. The first SIGINT/SIGTERM/SIGHUP lets the runs
 //! in progress finish (each is written) and starts no other; a second ends the process at
 //! once (`progress::Interrupts`).
 

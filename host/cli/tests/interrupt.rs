@@ -1,6 +1,6 @@
-//! An interrupt keeps what was done: SIGINT or SIGTERM stops a run at the next trial
+//! An interrupt keeps what was done: SIGINT, SIGTERM or SIGHUP stops a run at the next trial
 //! boundary, writes the report (marked interrupted) and a checkpoint that `--continue`
-//! resumes, and exits 130 or 143; a second signal ends it at once.
+//! resumes, and exits 130, 143 or 129; a second signal ends it at once.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -105,8 +105,8 @@ fn sigint_keeps_what_was_done_and_continue_resumes_it() {
     assert_eq!(m["interrupted"], false);
 }
 
-/// SIGTERM ends the same way with 143; a second signal ends the process at once without
-/// waiting for the trial boundary.
+/// SIGTERM ends the same way with 143, SIGHUP with 129; a second signal ends the process at
+/// once without waiting for the trial boundary.
 #[test]
 fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
     let d = dir("term");
@@ -122,6 +122,16 @@ fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(json(&report)["interrupted"], true);
+    // a closed terminal (SIGHUP) too, with 129: it used to end the run with nothing written
+    let (report_hup, ckpt_hup) = (d.join("hup.json"), d.join("hup.ckpt"));
+    let child = long_training(&report_hup, &ckpt_hup);
+    std::thread::sleep(Duration::from_secs(2));
+    signal(&child, "-HUP");
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(129), "{err}");
+    assert_eq!(json(&report_hup)["interrupted"], true);
+    assert!(ckpt_hup.exists(), "the checkpoint of what was done");
     let (report2, ckpt2) = (d.join("r2.json"), d.join("net2.ckpt"));
     let mut child = long_training(&report2, &ckpt2);
     std::thread::sleep(Duration::from_secs(2));
