@@ -27,7 +27,8 @@ impl Interrupts {
         let i = Interrupts::default();
         let any = Arc::new(AtomicBool::new(false));
         for (sig, mine) in [(SIGINT, &i.int), (SIGTERM, &i.term), (SIGHUP, &i.hup)] {
-            // registered first: runs before the flag below is set by this same signal
+            // registered first: they run before the flag below is set by this same signal
+            say_when_second(sig, any.clone())?;
             flag::register_conditional_shutdown(sig, 128 + sig, any.clone())?;
             flag::register(sig, any.clone())?;
             flag::register(sig, mine.clone())?;
@@ -50,6 +51,33 @@ impl Interrupts {
             .find(|(f, _)| f.load(Ordering::Relaxed))
             .map(|(_, code)| code)
     }
+}
+
+/// On a second signal (`any` already set), says on stderr that the process quits at once,
+/// before the shutdown registered after it ends it: it used to end without a word.
+#[cfg(unix)]
+fn say_when_second(sig: i32, any: Arc<AtomicBool>) -> std::io::Result<()> {
+    const SAID: &[u8] = b"\ntrn: interrupted again: quitting at once, nothing more is written\n";
+    let action = move || {
+        if any.load(Ordering::SeqCst) {
+            #[allow(unsafe_code)]
+            // SAFETY: write(2) is async-signal-safe; the buffer is a static byte string of
+            // the length passed. Its result is ignored: nothing can be done about a failed
+            // write in a signal handler, and the process exits right after.
+            unsafe {
+                libc::write(2, SAID.as_ptr().cast(), SAID.len());
+            }
+        }
+    };
+    #[allow(unsafe_code)]
+    // SAFETY: the action only loads an atomic and calls write(2), both async-signal-safe; it
+    // allocates, locks and panics nothing.
+    unsafe { signal_hook::low_level::register(sig, action) }.map(drop)
+}
+
+#[cfg(not(unix))]
+fn say_when_second(_: i32, _: Arc<AtomicBool>) -> std::io::Result<()> {
+    Ok(())
 }
 
 /// The command line's observer of one run.

@@ -133,14 +133,16 @@ fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
     assert_eq!(json(&report_hup)["interrupted"], true);
     assert!(ckpt_hup.exists(), "the checkpoint of what was done");
     let (report2, ckpt2) = (d.join("r2.json"), d.join("net2.ckpt"));
-    let mut child = long_training(&report2, &ckpt2);
+    let child = long_training(&report2, &ckpt2);
     std::thread::sleep(Duration::from_secs(2));
     signal(&child, "-INT");
     signal(&child, "-INT");
     let t = Instant::now();
-    let status = child.wait().unwrap();
-    assert_eq!(status.code(), Some(130));
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130));
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("interrupted again: quitting at once"), "{err}");
 }
 
 /// A run killed outright (SIGKILL) keeps its last periodic checkpoint
