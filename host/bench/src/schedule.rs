@@ -125,12 +125,21 @@ where
 {
     cx.observer.start(plan.total() as u64);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(crate::seeds::Seeds::of(cx.seed).schedule);
-    let sets = {
+    // an interrupt while the held-out sets are drawn ends the run before its first trial
+    let (sets, interrupted) = {
         let plant = runner.rig().plant();
-        HeldOutSets {
-            targets: HeldOut::set(&plant, &mut rng, plan.eval_targets, false)?,
-            grasps: HeldOut::set(&plant, &mut rng, plan.grasps, true)?,
-        }
+        let stop = || cx.observer.stop_requested();
+        let targets = HeldOut::set_unless(&plant, &mut rng, plan.eval_targets, false, &stop)?;
+        let grasps = match targets {
+            Some(_) => HeldOut::set_unless(&plant, &mut rng, plan.grasps, true, &stop)?,
+            None => None,
+        };
+        let interrupted = targets.is_none() || grasps.is_none();
+        let sets = HeldOutSets {
+            targets: targets.unwrap_or_default(),
+            grasps: grasps.unwrap_or_default(),
+        };
+        (sets, interrupted)
     };
     if let Some(s) = cx.resume {
         *runner.rig_mut().plant_mut() = s.plant.clone();
@@ -139,7 +148,10 @@ where
     }
     let mut s = Session {
         runner,
-        log: RunLog::default(),
+        log: RunLog {
+            interrupted,
+            ..RunLog::default()
+        },
         observer: cx.observer,
         seed: cx.seed,
         earlier: cx.resume.map(|r| &r.history),

@@ -17,15 +17,31 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn long_training(report: &Path, ckpt: &Path) -> Child {
+/// `trn ARGS` started, its output captured.
+fn start(args: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_trn"))
-        .args(["train", "--trials", "100000", "--quiet"])
-        .args(["--eval-targets", "3", "--grasps", "1"])
-        .args(["--report", s(report), "--checkpoint-out", s(ckpt)])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("trn starts")
+}
+
+fn long_training(report: &Path, ckpt: &Path) -> Child {
+    start(&[
+        "train",
+        "--trials",
+        "100000",
+        "--quiet",
+        "--eval-targets",
+        "3",
+        "--grasps",
+        "1",
+        "--report",
+        s(report),
+        "--checkpoint-out",
+        s(ckpt),
+    ])
 }
 
 fn signal(child: &Child, sig: &str) {
@@ -34,6 +50,20 @@ fn signal(child: &Child, sig: &str) {
         .status()
         .unwrap();
     assert!(ok.success());
+}
+
+/// The output of `child` once it ended; killed and failed (`what`) if it has not within 20 s
+/// (a test that would otherwise wait for hours).
+fn ended_within_20_s(mut child: Child, what: &str) -> std::process::Output {
+    let t = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t.elapsed() > Duration::from_secs(20) {
+            child.kill().unwrap();
+            panic!("{what} 20 s after the interrupt");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
 }
 
 fn json(p: &Path) -> serde_json::Value {
@@ -138,10 +168,46 @@ fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
     signal(&child, "-INT");
     signal(&child, "-INT");
     let t = Instant::now();
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(out.status.code(), Some(130));
+    let status = child.wait_with_output().unwrap().status;
+    assert_eq!(status.code(), Some(130));
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
+}
+
+/// In a study the first interrupt lets the run in progress finish (here one of 100,000
+/// trials: hours); a second one quits at once and says so, where it used to end without a
+/// word.
+#[test]
+fn a_second_interrupt_quits_a_study_at_once_and_says_so() {
+    let d = dir("study-twice");
+    let out_dir = d.join("out");
+    let mut child = start(&[
+        "compare",
+        "--seeds",
+        "1",
+        "--trials",
+        "100000",
+        "--jobs",
+        "1",
+        "--eval-targets",
+        "3",
+        "--grasps",
+        "0",
+        "--quiet",
+        "--out",
+        s(&out_dir),
+    ]);
+    std::thread::sleep(Duration::from_secs(2));
+    signal(&child, "-INT");
+    // the first is handled (a pending signal of the same kind would absorb the second)
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the first ended the study"
+    );
+    signal(&child, "-INT");
+    let out = ended_within_20_s(child, "the study went on");
     let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted again: quitting at once"), "{err}");
 }
 
@@ -190,4 +256,33 @@ fn a_killed_run_keeps_its_last_periodic_checkpoint() {
         trials > 10 && (trials - 1).is_multiple_of(10),
         "{trials} trials"
     );
+}
+
+/// An interrupt while a large held-out set is still being drawn (each target settles a twin
+/// of the arm: a million of them take hours) ends the run at once, with the report written
+/// and marked interrupted, where the first signal used to wait for the whole set.
+#[test]
+fn an_interrupt_while_the_held_out_set_is_drawn_ends_the_run() {
+    let d = dir("held-out");
+    let report = d.join("r.json");
+    let child = start(&[
+        "train",
+        "--trials",
+        "5",
+        "--quiet",
+        "--eval-targets",
+        "1000000",
+        "--grasps",
+        "0",
+        "--report",
+        s(&report),
+    ]);
+    std::thread::sleep(Duration::from_secs(2));
+    signal(&child, "-INT");
+    let out = ended_within_20_s(child, "still drawing the held-out set");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    let r = json(&report);
+    assert_eq!(r["interrupted"], true);
+    assert_eq!(r["learning_curve"].as_array().map_or(0, Vec::len), 0);
 }

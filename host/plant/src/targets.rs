@@ -97,6 +97,20 @@ impl HeldOut {
             .collect())
     }
 
+    /// [`HeldOut::set`], given up when `stop` says so (asked before every 64th draw): `None`
+    /// then. A large set takes long to realise (each target settles a twin of the arm), and
+    /// an interrupt must not wait for it. `stop` draws nothing: the set is the same.
+    pub fn set_unless(
+        plant: &Plant,
+        rng: &mut impl RngCore,
+        n: usize,
+        grasp: bool,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Option<Vec<HeldOut>>> {
+        Ok(HeldOut::realise_unless(plant, rng, n, grasp, stop)?
+            .map(|set| set.into_iter().map(|(h, _)| h).collect()))
+    }
+
     /// [`HeldOut::set`] with each target as it was realised (the same draws, the same
     /// targets): a caller that needs the targets now does not realise them again.
     pub fn set_realised(
@@ -105,9 +119,22 @@ impl HeldOut {
         n: usize,
         grasp: bool,
     ) -> Result<Vec<(HeldOut, Target)>> {
+        Ok(HeldOut::realise_unless(plant, rng, n, grasp, &|| false)?.unwrap_or_default())
+    }
+
+    fn realise_unless(
+        plant: &Plant,
+        rng: &mut impl RngCore,
+        n: usize,
+        grasp: bool,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Option<Vec<(HeldOut, Target)>>> {
         let mut out = Vec::with_capacity(n);
         let mut draws = 0;
         while out.len() < n {
+            if draws % 64 == 0 && stop() {
+                return Ok(None);
+            }
             draws += 1;
             if draws > 20 * n + 1000 {
                 return Err(Error::NoTarget(draws));
@@ -117,7 +144,7 @@ impl HeldOut {
                 out.push((h, t));
             }
         }
-        Ok(out)
+        Ok(Some(out))
     }
 
     /// The target on a twin of `plant` (the same drift and wear), with its cylinder for a
