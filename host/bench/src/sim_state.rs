@@ -76,13 +76,7 @@ pub fn previous_beside(checkpoint: &Path) -> PathBuf {
 
 /// The CRC of the controller checkpoint the state at `path` was saved with, if it reads.
 pub fn paired_crc(path: &Path) -> Option<u32> {
-    let mut bytes = vec![];
-    trn_plant::input::open(path)
-        .ok()?
-        .take(MAX_SIZE + 1)
-        .read_to_end(&mut bytes)
-        .ok()?;
-    decode(&bytes, path).ok().map(|s| s.checkpoint_crc)
+    read(path).ok().map(|s| s.checkpoint_crc)
 }
 
 /// [`load`] of the state that pairs with the controller checkpoint `checkpoint` (CRC
@@ -155,13 +149,22 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<SimState> {
 /// The plant configuration of the state at `path` (any seed, any checkpoint): which plant a
 /// checkpoint beside it was trained on.
 pub fn read_plant_config(path: &Path) -> Result<SimConfig> {
+    Ok(read(path)?.plant.config().clone())
+}
+
+/// The state at `path`, read bounded (a longer file is refused unread) and decoded; not yet
+/// checked against a run.
+fn read(path: &Path) -> Result<SimState> {
     let mut bytes = vec![];
     trn_plant::input::open(path)
         .map_err(io(path))?
         .take(MAX_SIZE + 1)
         .read_to_end(&mut bytes)
         .map_err(io(path))?;
-    Ok(decode(&bytes, path)?.plant.config().clone())
+    if bytes.len() as u64 > MAX_SIZE {
+        return Err(bad(path, "too long"));
+    }
+    decode(&bytes, path)
 }
 
 /// Writes `state` durably to `path`.
@@ -172,16 +175,7 @@ pub fn save(state: &SimState, path: &Path) -> Result<()> {
 /// Reads and verifies the state at `path` for a run with seed `seed` on configuration `cfg`,
 /// saved with the controller checkpoint whose CRC is `checkpoint_crc`.
 pub fn load(path: &Path, seed: u64, cfg: &SimConfig, checkpoint_crc: u32) -> Result<SimState> {
-    let mut bytes = vec![];
-    trn_plant::input::open(path)
-        .map_err(io(path))?
-        .take(MAX_SIZE + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io(path))?;
-    if bytes.len() as u64 > MAX_SIZE {
-        return Err(bad(path, "too long"));
-    }
-    let state = decode(&bytes, path)?;
+    let state = read(path)?;
     if state.seed != seed {
         return Err(bad(
             path,
