@@ -85,9 +85,7 @@ pub fn image_for(
     }
     let mut ctrl = Box::new(Controller::new(*cfg));
     load(&mut ctrl, path, provenance, allow_change)?;
-    let mut buf = vec![0u8; checkpoint::MAX_SIZE];
-    let n = checkpoint::save(&ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
-    buf.truncate(n);
+    let buf = image_of(&ctrl, provenance, path)?;
     let relabelled = checkpoint::verify(&buf).map_err(checkpoint_err(path))?;
     Ok((buf, relabelled, bytes))
 }
@@ -162,9 +160,7 @@ pub fn crc_of(bytes: &[u8]) -> u32 {
 
 /// Writes a checkpoint of `ctrl` durably (see the module).
 pub fn save(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<()> {
-    let mut buf = vec![0u8; checkpoint::MAX_SIZE];
-    let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
-    crate::fsio::write_durably(path, &buf[..n])
+    crate::fsio::write_durably(path, &image_of(ctrl, provenance, path)?)
 }
 
 /// Writes the pair a run continues from: the controller's checkpoint at `path` and the
@@ -176,7 +172,13 @@ pub fn save_with_state(
     path: &Path,
     state: crate::sim_state::SimState,
 ) -> Result<()> {
+    save_image_with_state(&image_of(ctrl, provenance, path)?, path, state)
+}
+
+/// The checkpoint image of `ctrl` (errors named by `path`, where it goes).
+fn image_of(ctrl: &Controller, provenance: Provenance, path: &Path) -> Result<Vec<u8>> {
     let mut buf = vec![0u8; checkpoint::MAX_SIZE];
     let n = checkpoint::save(ctrl, provenance, &mut buf).map_err(checkpoint_err(path))?;
-    save_image_with_state(&buf[..n], path, state)
+    buf.truncate(n);
+    Ok(buf)
 }

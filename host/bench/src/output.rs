@@ -26,7 +26,7 @@ use crate::report::Report;
 use crate::sim_state;
 use crate::spec::RunSpec;
 
-/// The outputs of a run, checked, with the checkpoint's lock held.
+/// The outputs of a run, checked, with their locks held.
 #[derive(Debug)]
 pub struct OutputPlan {
     report: Option<PathBuf>,

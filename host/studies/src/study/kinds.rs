@@ -56,7 +56,7 @@ pub fn run(
     // JSON, from here to the end (output.rs, rule 3)
     let mut locks = Vec::new();
     if let Some(p) = json {
-        trn_bench::fsio::check_path(p, trn_bench::fsio::Kind::Json)?;
+        fsio::check_path(p, fsio::Kind::Json)?;
         locks.push(fsio::lock_beside(p, "this study's JSON")?);
     }
     fsio::create_folder(&opts.runs)?;
@@ -95,7 +95,7 @@ pub fn run(
     }
     let finished = finish(outcome.into_files())?;
     if let Some(p) = json {
-        trn_bench::fsio::write_json(p, &trn_bench::provenance::Stamped::new(&finished.json))?;
+        fsio::write_json(p, &trn_bench::provenance::Stamped::new(&finished.json))?;
     }
     ran.finished = Some(finished);
     Ok(ran)
