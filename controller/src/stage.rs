@@ -466,6 +466,14 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_fine[m] = w * by_map + (1.0 - w) * p_fine[m];
             }
         }
+        let noise = self.cfg.step_noise;
+        if noise > 0.0 && !tr.learn {
+            // the step shortened near the noise floor (StageConfig::step_noise)
+            let gain = d * d / (d * d + noise * noise);
+            for m in 0..M {
+                p_fine[m] = tr.p_last[m] + gain * (p_fine[m] - tr.p_last[m]);
+            }
+        }
         let p_fine = rules::clamp(&p_fine, limit);
         tr.p_prev = tr.p_last;
         tr.v_prev = *v;
@@ -523,18 +531,26 @@ mod tests {
         [V0[0] + 50.0 * p[0], V0[1] + 25.0 * p[1]]
     }
 
-    /// The errors after the coarse move and 3 fine moves of a mature trial, with every
-    /// neuron's map `A0` (so the averaged Jacobian is `A0`), and whether the tables changed.
-    fn errors(gain: f32) -> ([f32; 4], bool) {
+    /// Four neurons near `V0`, each with the map `A0` and pressure 0 (so the averaged Jacobian
+    /// is `A0`), under the project's stage-1 configuration changed by `change` (and every move
+    /// of the Jacobian rule learned from).
+    fn stage_of_a0(change: impl FnOnce(&mut StageConfig)) -> Stage<4, 2, 2, 4> {
         let mut cfg = Config::project_default().stage1;
-        cfg.trial_secant = gain;
         cfg.min_dv = 1e-3;
+        change(&mut cfg);
         let mut s: Stage<4, 2, 2, 4> = Stage::new(cfg);
         s.set_config(cfg).unwrap();
         for k in 0..4 {
             let w = [V0[0] + k as f32, V0[1] - k as f32];
             s.net_mut().set_neuron(k, w, [0.0; 2], A0);
         }
+        s
+    }
+
+    /// The errors after the coarse move and 3 fine moves of a mature trial, with every
+    /// neuron's map `A0` (so the averaged Jacobian is `A0`), and whether the tables changed.
+    fn errors(gain: f32) -> ([f32; 4], bool) {
+        let mut s = stage_of_a0(|cfg| cfg.trial_secant = gain);
         let before = s.net().clone();
         let mut p = s
             .begin_with(
@@ -578,6 +594,59 @@ mod tests {
         let (e3, _) = errors(Config::project_default().stage1.trial_secant);
         let (e0, _) = errors(0.0);
         assert!(e3[2] < e0[2] && e3[3] < e0[3], "{e3:?} vs {e0:?}");
+    }
+
+    /// With the step's noise (`StageConfig::step_noise`) a mature fine move goes
+    /// `|e|^2 / (|e|^2 + step_noise^2)` of the Jacobian's step: nearly all of it far from the
+    /// target, half of it at `|e| = step_noise`; a learning trial steps in full.
+    #[test]
+    fn the_steps_noise_shortens_a_mature_fine_move_near_the_target() {
+        let errors = |noise: f32, learn: bool, shift: [f32; 2]| {
+            let mut s = stage_of_a0(|cfg| {
+                cfg.step_noise = noise;
+                cfg.trial_secant = 0.0;
+            });
+            // an arm whose Jacobian is A0's inverse, off the maps by `shift`: the coarse move
+            // lands about `shift` from the target, the Jacobian's step on it
+            let exact = |p: &[f32; 2]| {
+                [
+                    V0[0] + shift[0] + 100.0 * p[0],
+                    V0[1] + shift[1] + 50.0 * p[1],
+                ]
+            };
+            let mut scratch = RankScratch::new();
+            let p0 = s
+                .begin_with(&TARGET, None, learn, FineMoves::Exactly(1), &mut scratch)
+                .unwrap();
+            let v0 = exact(&p0);
+            let StageStep::Move(p1) = s.observe(&v0, &mut scratch).unwrap() else {
+                panic!("a fine move follows");
+            };
+            (distance(&v0, &TARGET), distance(&exact(&p1), &TARGET))
+        };
+        let (near, far) = ([1.5, 0.5], [20.0, -10.0]);
+        for shift in [near, far] {
+            let (e0, e1) = errors(0.0, false, shift);
+            assert!(e1 < 1e-3 * e0, "off: the full step ({e0} -> {e1})");
+            let (_, e1) = errors(0.0, true, shift);
+            assert!(e1 < 1e-3 * e0, "learning: the full step ({e0} -> {e1})");
+            let (_, e1) = errors(2.5, true, shift);
+            assert!(
+                e1 < 1e-3 * e0,
+                "learning, noise 2.5: the full step ({e0} -> {e1})"
+            );
+            let (e0, e1) = errors(2.5, false, shift);
+            let left = 2.5 * 2.5 / (e0 * e0 + 2.5 * 2.5);
+            assert!(
+                (e1 / e0 - left).abs() < 1e-3,
+                "{e0} -> {e1}, {left} expected"
+            );
+        }
+        // near the target (2 px) more than half of the error is left, 20 px off about 1 %
+        let (e0, e1) = errors(2.5, false, near);
+        assert!(e0 < 2.5 && e1 / e0 > 0.5, "{e0} -> {e1}");
+        let (e0, e1) = errors(2.5, false, far);
+        assert!(e0 > 20.0 && e1 / e0 < 0.02, "{e0} -> {e1}");
     }
 
     /// A mature trial's first fine move with the map's step: `map_step` of

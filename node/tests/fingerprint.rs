@@ -64,6 +64,7 @@ impl Bytes {
         self.f32(s.dv_noise);
         self.f32(s.trial_secant);
         self.f32(s.map_step);
+        self.f32(s.step_noise);
         for x in [
             s.pressure_limit,
             s.input_min,

@@ -188,6 +188,14 @@ pub struct StageConfig {
     /// (8.14). A deviation, off in every preset; the study `studies/precision.toml` measures
     /// it ([`crate::stage`]).
     pub map_step: f32,
+    /// The camera noise a mature fine move expects in its measured error (pixels; `0` = off,
+    /// the paper): the step of (8.14, 8.20, 8.29) is scaled by `|e|^2 / (|e|^2 +
+    /// step_noise^2)`, `e` the measured error before it (the Wiener gain for an error seen
+    /// through noise of that size): far from the target the full step, near the camera-noise
+    /// floor a shorter one, so that a move there follows less of the noise it sees. A
+    /// deviation, off in every preset; the study `studies/precision.toml` measures it
+    /// ([`crate::stage`]).
+    pub step_noise: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -406,6 +414,7 @@ impl Config {
             dv_noise: 0.0,
             trial_secant: 0.0,
             map_step: 0.0,
+            step_noise: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -525,6 +534,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     dv_noise: 0.0,
     trial_secant: 0.0,
     map_step: 0.0,
+    step_noise: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
@@ -572,7 +582,7 @@ impl Config {
             law_code,
             &self.broyden,
         );
-        // the encoding (297 bytes) digested as postcard writes it, with no buffer on the stack
+        // the encoding (305 bytes) digested as postcard writes it, with no buffer on the stack
         // (the compact build's CAN node computes it in its deepest session path)
         // (digesting never fails: no error to map)
         postcard::serialize_with_flavor(&fields, CrcDigest(crate::crc::CRC.digest()))
