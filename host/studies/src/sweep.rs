@@ -217,6 +217,7 @@ mod tests {
             out: out.clone(),
         };
         let s = spec.study().unwrap();
+        assert!(s.write_plants(&|| false).unwrap());
         let before = before();
         assert_eq!(s.jobs.len(), before.len() * 3);
         for (i, (name, apply)) in before.iter().enumerate() {

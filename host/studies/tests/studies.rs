@@ -119,9 +119,63 @@ fn the_grid_is_rows_times_axis_values_times_seeds() {
         (0, "broyden")
     );
     assert_eq!(s.jobs[0].spec.plan.trials, 6);
-    // a plant made of keys is written, and the runs name its file
+    // a plant made of keys is named by the runs, and written before the first run
     let file = PathBuf::from(j.spec.plant_name.clone().unwrap());
+    assert!(
+        !file.exists(),
+        "building the study wrote {}",
+        file.display()
+    );
+    assert!(s.write_plants(&|| false).unwrap());
     assert_eq!(trn_plant::SimConfig::load(&file).unwrap(), j.spec.plant);
+}
+
+/// A study of many configurations writes a plant file for each before its first run (up
+/// to 100,000, each written durably: minutes), so an interrupt is heard between them: the
+/// files written so far stay, no run starts, the study is reported interrupted.
+#[test]
+fn an_interrupt_while_the_plant_files_are_written_starts_no_run() {
+    struct StopAfter(AtomicUsize);
+    impl Watch for StopAfter {
+        fn stop_requested(&self) -> bool {
+            self.0.fetch_sub(1, Ordering::Relaxed) == 0
+        }
+    }
+    let dir = scratch("plants-stop");
+    let s = tiny(&dir);
+    let named: Vec<PathBuf> = s.plants.iter().map(|p| p.path.clone()).collect();
+    assert_eq!(named.len(), 4, "one plant per row and width");
+    let written = || named.iter().filter(|p| p.exists()).count();
+    // asked before each file: stopped before the third
+    let asked = AtomicUsize::new(0);
+    let stop = || asked.fetch_add(1, Ordering::Relaxed) == 2;
+    assert!(!s.write_plants(&stop).unwrap());
+    assert_eq!(written(), 2);
+    // a whole study: stopped before its second plant file, nothing run
+    std::fs::remove_dir_all(dir.join("plants")).unwrap();
+    let ran = study::run(
+        &s,
+        &opts(&dir.join("runs"), 1),
+        &StopAfter(AtomicUsize::new(1)),
+        None,
+    )
+    .unwrap();
+    assert!(ran.interrupted && ran.finished.is_none());
+    assert_eq!((ran.ran, ran.resumed), (0, 0));
+    assert_eq!(written(), 1);
+    let runs = std::fs::read_dir(dir.join("runs")).unwrap().count();
+    assert_eq!(runs, 0, "a run file was written");
+    // not stopped: every file, then the runs
+    let ran = study::run(
+        &s,
+        &opts(&dir.join("runs"), 1),
+        &trn_bench::Unobserved,
+        None,
+    )
+    .unwrap();
+    assert!(!ran.interrupted && ran.ran == 8);
+    assert_eq!(written(), 4);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `--jobs 2` gives the runs and the table of `--jobs 1`, and so do two shards merged.

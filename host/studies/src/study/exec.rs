@@ -8,7 +8,8 @@
 //! - **Nothing finished is lost.** A run's file is written whole or not at all
 //!   ([`trn_bench::fsio::write_durably`]) as soon as the run ends; a run that fails is
 //!   reported and the others go on; a stop request (an interrupt) lets the runs in progress
-//!   finish and starts no other.
+//!   finish and starts no other, and is heard between the plant files written before the
+//!   first run ([`Study::write_plants`]).
 //! - **Resume.** With `resume`, a job whose file is there and holds its run specification
 //!   (not only its name) and a finished, uninterrupted report is not run again; a file that
 //!   cannot be read, or holds another specification, is redone.
@@ -102,12 +103,16 @@ enum Step {
 /// is unusable; a run that fails is reported in the outcome, not as an error.
 pub fn execute(study: &Study, opts: &Options, watch: &dyn Watch) -> Result<Outcome> {
     study.check()?;
+    let mut outcome = Outcome::default();
+    if !study.write_plants(&|| watch.stop_requested())? {
+        outcome.interrupted = true;
+        return Ok(outcome);
+    }
     let selected = study.select(opts.shard);
     fsio::create_folder(&opts.runs)?;
     if let Some(j) = selected.first() {
         fsio::check_path(&opts.runs.join(j.file_name()), Kind::Json)?;
     }
-    let mut outcome = Outcome::default();
     let mut done: Vec<Option<RunFile>> = vec![None; selected.len()];
     let mut todo = vec![];
     for (slot, job) in selected.iter().enumerate() {

@@ -49,7 +49,7 @@ use trn_controller::presets::{Ablation, Preset};
 use trn_plant::SimConfig;
 
 use super::keys::{get, set, CONTROLLER, PLANT};
-use super::{slug, Row, Study, Table};
+use super::{slug, PlantFile, Row, Study, Table};
 use trn_bench::spec::{Command, RunSpec};
 use trn_bench::{io, LabError, Result};
 
@@ -224,9 +224,9 @@ impl StudyFile {
 
     /// The study, with `over` applied; plant files named in it are relative to `dir`. A
     /// configuration whose plant no built-in name or file describes (keys set or copied),
-    /// and with the sweep's table every configuration, has its plant written to
-    /// `plants/KEY.toml` (the runs name that file), so each row can be run again alone with
-    /// `--config`.
+    /// and with the sweep's table every configuration, has its plant named
+    /// `plants/KEY.toml` (the runs name that file; [`Study::write_plants`] writes it, as
+    /// running the study does), so each row can be run again alone with `--config`.
     pub fn study(&self, dir: &Path, over: &Overrides, plants: Option<&Path>) -> Result<Study> {
         let mut base = self.base.clone();
         base.plant = over.plant.clone().or(base.plant);
@@ -271,6 +271,7 @@ impl StudyFile {
             (s, None) => s.list(),
         };
         let mut runs = vec![];
+        let mut files = vec![];
         for c in configs {
             let mut layers = vec![&base];
             layers.extend(c.layers.iter());
@@ -281,9 +282,8 @@ impl StudyFile {
                 let path = out.join(format!("{}.toml", slug(&c.row.name)));
                 let text =
                     toml::to_string(&spec.plant).map_err(|e| LabError::Usage(e.to_string()))?;
-                trn_bench::fsio::create_folder(out)?;
-                trn_bench::fsio::write_durably(&path, text.as_bytes())?;
                 spec.plant_name = Some(path.display().to_string());
+                files.push(PlantFile { path, text });
             }
             for &seed in &seeds {
                 runs.push((
@@ -295,7 +295,9 @@ impl StudyFile {
                 ));
             }
         }
-        Ok(Study::new(&self.name, self.table, None, runs))
+        let mut study = Study::new(&self.name, self.table, None, runs);
+        study.plants = files;
+        Ok(study)
     }
 
     /// The configurations: every row (of `over.configs`) crossed with every axis value.

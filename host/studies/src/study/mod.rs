@@ -142,6 +142,18 @@ pub struct Study {
     pub header: StudyHeader,
     /// Its runs, in the table's order.
     pub jobs: Vec<Job>,
+    /// The plant files its runs name, written before the first run ([`Study::write_plants`]).
+    pub plants: Vec<PlantFile>,
+}
+
+/// A plant made of keys, and the file a study writes it to so that its row can be run again
+/// alone with `--config` ([`file::StudyFile::study`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlantFile {
+    /// Where it is written (the runs name this path).
+    pub path: std::path::PathBuf,
+    /// The plant as TOML.
+    pub text: String,
 }
 
 impl Study {
@@ -176,7 +188,30 @@ impl Study {
                 lifelong,
             },
             jobs,
+            plants: Vec::new(),
         }
+    }
+
+    /// Writes the plant files the runs name ([`Study::plants`]), each durably, and asks
+    /// `stop` before each: `Ok(false)` when it said stop (the files written so far stay; the
+    /// next call writes every one again). A study of many configurations writes as many files
+    /// before its first run, so an interrupt must be heard here too.
+    pub fn write_plants(&self, stop: &dyn Fn() -> bool) -> Result<bool> {
+        let mut folder = None;
+        for p in &self.plants {
+            if stop() {
+                return Ok(false);
+            }
+            let parent = p.path.parent();
+            if parent != folder {
+                if let Some(dir) = parent.filter(|d| !d.as_os_str().is_empty()) {
+                    trn_bench::fsio::create_folder(dir)?;
+                }
+                folder = parent;
+            }
+            trn_bench::fsio::write_durably(&p.path, p.text.as_bytes())?;
+        }
+        Ok(true)
     }
 
     /// Refuses a study that cannot run, before anything runs: no runs, two runs of the same
