@@ -280,10 +280,11 @@ impl StudyFile {
             })?;
             if let Some(out) = plants.filter(|_| changed || self.table == Table::Sweep) {
                 let path = out.join(format!("{}.toml", slug(&c.row.name)));
-                let text =
-                    toml::to_string(&spec.plant).map_err(|e| LabError::Usage(e.to_string()))?;
                 spec.plant_name = Some(path.display().to_string());
-                files.push(PlantFile { path, text });
+                files.push(PlantFile {
+                    path,
+                    plant: spec.plant.clone(),
+                });
             }
             for &seed in &seeds {
                 runs.push((

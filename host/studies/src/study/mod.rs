@@ -152,8 +152,8 @@ pub struct Study {
 pub struct PlantFile {
     /// Where it is written (the runs name this path).
     pub path: std::path::PathBuf,
-    /// The plant as TOML.
-    pub text: String,
+    /// The plant (written as TOML).
+    pub plant: trn_plant::SimConfig,
 }
 
 impl Study {
@@ -209,7 +209,8 @@ impl Study {
                 }
                 folder = parent;
             }
-            trn_bench::fsio::write_durably(&p.path, p.text.as_bytes())?;
+            let text = toml::to_string(&p.plant).map_err(|e| LabError::Usage(e.to_string()))?;
+            trn_bench::fsio::write_durably(&p.path, text.as_bytes())?;
         }
         Ok(true)
     }
