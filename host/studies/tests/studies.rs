@@ -135,31 +135,32 @@ fn the_grid_is_rows_times_axis_values_times_seeds() {
 /// files written so far stay, no run starts, the study is reported interrupted.
 #[test]
 fn an_interrupt_while_the_plant_files_are_written_starts_no_run() {
-    struct StopAfter(AtomicUsize);
-    impl Watch for StopAfter {
+    /// Says stop from its `at`-th question on (0-based), and from then on, as an interrupt does.
+    struct StopWhenAsked {
+        at: usize,
+        asked: AtomicUsize,
+    }
+    impl Watch for StopWhenAsked {
         fn stop_requested(&self) -> bool {
-            self.0.fetch_sub(1, Ordering::Relaxed) == 0
+            self.asked.fetch_add(1, Ordering::Relaxed) >= self.at
         }
     }
+    let stop_at = |at| StopWhenAsked {
+        at,
+        asked: AtomicUsize::new(0),
+    };
     let dir = scratch("plants-stop");
     let s = tiny(&dir);
     let named: Vec<PathBuf> = s.plants.iter().map(|p| p.path.clone()).collect();
     assert_eq!(named.len(), 4, "one plant per row and width");
     let written = || named.iter().filter(|p| p.exists()).count();
     // asked before each file: stopped before the third
-    let asked = AtomicUsize::new(0);
-    let stop = || asked.fetch_add(1, Ordering::Relaxed) == 2;
-    assert!(!s.write_plants(&stop).unwrap());
+    let stop = stop_at(2);
+    assert!(!s.write_plants(&|| stop.stop_requested()).unwrap());
     assert_eq!(written(), 2);
     // a whole study: stopped before its second plant file, nothing run
     std::fs::remove_dir_all(dir.join("plants")).unwrap();
-    let ran = study::run(
-        &s,
-        &opts(&dir.join("runs"), 1),
-        &StopAfter(AtomicUsize::new(1)),
-        None,
-    )
-    .unwrap();
+    let ran = study::run(&s, &opts(&dir.join("runs"), 1), &stop_at(1), None).unwrap();
     assert!(ran.interrupted && ran.finished.is_none());
     assert_eq!((ran.ran, ran.resumed), (0, 0));
     assert_eq!(written(), 1);

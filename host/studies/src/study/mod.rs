@@ -197,17 +197,12 @@ impl Study {
     /// next call writes every one again). A study of many configurations writes as many files
     /// before its first run, so an interrupt must be heard here too.
     pub fn write_plants(&self, stop: &dyn Fn() -> bool) -> Result<bool> {
-        let mut folder = None;
         for p in &self.plants {
             if stop() {
                 return Ok(false);
             }
-            let parent = p.path.parent();
-            if parent != folder {
-                if let Some(dir) = parent.filter(|d| !d.as_os_str().is_empty()) {
-                    trn_bench::fsio::create_folder(dir)?;
-                }
-                folder = parent;
+            if let Some(dir) = p.path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                trn_bench::fsio::create_folder(dir)?;
             }
             let text = toml::to_string(&p.plant).map_err(|e| LabError::Usage(e.to_string()))?;
             trn_bench::fsio::write_durably(&p.path, text.as_bytes())?;
