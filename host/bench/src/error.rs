@@ -75,6 +75,9 @@ pub enum LabError {
         /// Checks run.
         checks: usize,
     },
+    /// Interrupted before anything ran (while this was being prepared): nothing was written.
+    #[error("interrupted while {0}: nothing ran")]
+    Interrupted(&'static str),
 }
 
 /// The plant's errors as they are, but for [`PlantError::NoTarget`] (the targets are the

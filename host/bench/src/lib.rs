@@ -35,6 +35,7 @@ pub mod model_based;
 pub mod observe;
 pub mod oracle;
 pub mod output;
+pub mod patience;
 pub mod ports;
 pub mod provenance;
 pub mod records;

@@ -5,7 +5,7 @@
 use std::io::Write;
 
 use trn_controller::{Control, Controller};
-use trn_protocol::bus::RecordingPort;
+use trn_protocol::bus::{FaultyPort, RecordingPort};
 use trn_transport::inproc::SimulatedBus;
 
 /// A session's port, and the project's controller if this port holds it.
@@ -25,6 +25,13 @@ impl<C: Control + ?Sized> ControllerPort for SimulatedBus<C> {
 }
 
 impl<P: ControllerPort, W: Write, C: FnMut() -> u64> ControllerPort for RecordingPort<P, W, C> {
+    fn controller(&self) -> Option<&Controller> {
+        self.port().controller()
+    }
+}
+
+/// The host's fault layer in front of a port: the controller is where the port's is.
+impl<P: ControllerPort> ControllerPort for FaultyPort<P> {
     fn controller(&self) -> Option<&Controller> {
         self.port().controller()
     }

@@ -9,7 +9,7 @@ use trn_controller::checkpoint::Provenance;
 use trn_controller::Control;
 use trn_node::ControllerNode;
 use trn_plant::Plant;
-use trn_protocol::bus::BusStats;
+use trn_protocol::bus::{BusStats, FaultyPort};
 use trn_protocol::BusMode;
 use trn_transport::inproc::SimulatedBus;
 use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, TransportError};
@@ -184,7 +184,7 @@ pub fn run_with<S: Suite>(
                 &slcan_qemu::firmware_elf(),
             )
             .map_err(|m| TransportError::open(&bus_name, m))?;
-            let outcome = setup.drive_wall(port, plant, &mut report).map(drop);
+            let outcome = drive_wall(&mut setup, port, plant, &mut report);
             let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
             outcome?;
             stopped?;
@@ -193,10 +193,10 @@ pub fn run_with<S: Suite>(
             BusSpec::SlcanSerial(path) => {
                 let port = slcan_serial::SerialSlcan::open(path, spec.bus.bitrate)
                     .map_err(|m| TransportError::open(&bus_name, m))?;
-                setup.drive_wall(port, plant, &mut report)?;
+                drive_wall(&mut setup, port, plant, &mut report)?;
             }
             BusSpec::SocketCan(iface) => {
-                setup.drive_wall(socketcan(iface, &bus_name)?, plant, &mut report)?;
+                drive_wall(&mut setup, socketcan(iface, &bus_name)?, plant, &mut report)?;
             }
             _ => {
                 return Err(LabError::Usage(format!(
@@ -216,7 +216,7 @@ pub fn run_with<S: Suite>(
                 tables: spec.tables.as_deref(),
             };
             let child = peer::spawn_controller_node(&args, &bus_name)?;
-            let outcome = setup.drive_wall(port, plant, &mut report).map(drop);
+            let outcome = drive_wall(&mut setup, port, plant, &mut report);
             let stopped = peer::finish_process(child, outcome.is_ok(), &bus_name);
             outcome?;
             stopped?;
@@ -276,6 +276,46 @@ fn inline_shared<C: Control + ?Sized, S: Suite>(
         ("aborted", n.aborted),
     ]));
     Ok(())
+}
+
+/// The session on a bus this process does not deliver (SocketCAN, SLCAN, QEMU) on the wall
+/// clock, the host's port behind the fault layer: `--faults` (none: every frame passes,
+/// and no decision is drawn) on what the host sends and what it receives, seeded like the
+/// in-process bus's injector.
+fn drive_wall<P, S: Suite>(
+    setup: &mut Setup<S>,
+    port: P,
+    plant: Plant,
+    report: &mut Report,
+) -> Result<()>
+where
+    P: embedded_can::blocking::Can<Frame = trn_protocol::CanFrame, Error = trn_protocol::Error>
+        + trn_protocol::bus::ReceiveTimeout
+        + crate::ports::ControllerPort,
+{
+    let spec = setup.spec();
+    let given = spec.bus.faults;
+    let seed = crate::seeds::Seeds::of(spec.seed).faults;
+    let port = FaultyPort::new(port, given.unwrap_or_default(), seed);
+    let port = setup.drive_wall(port, plant, report)?;
+    if given.is_some() {
+        let (out, incoming) = port.stats();
+        report.bus_stats.injected = Some(injected(&sum(out, incoming)));
+    }
+    Ok(())
+}
+
+/// Two directions' counters as one, as the in-process bus counts its copies.
+fn sum(a: BusStats, b: BusStats) -> BusStats {
+    BusStats {
+        sent: a.sent + b.sent,
+        delivered: a.delivered + b.delivered,
+        dropped: a.dropped + b.dropped,
+        duplicated: a.duplicated + b.duplicated,
+        corrupted: a.corrupted + b.corrupted,
+        truncated: a.truncated + b.truncated,
+        delayed: a.delayed + b.delayed,
+    }
 }
 
 /// The in-process controller node's settings: the host's, in protocol version 3 for the

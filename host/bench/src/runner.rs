@@ -16,6 +16,7 @@ use trn_protocol::{
 use super::records::{Phase, TrialKind, TrialRecord};
 use super::rig::{Event, Rig};
 use crate::error::{LabError as Error, Result};
+use crate::patience::Patience;
 pub use crate::report::RunnerStats;
 use trn_plant::targets::{self, HeldOut, Target};
 
@@ -47,6 +48,7 @@ pub struct Runner<P> {
     rng: Xoshiro256PlusPlus,
     trial: u32,
     timing: Timing,
+    patience: Patience,
     stats: RunnerStats,
 }
 
@@ -65,17 +67,21 @@ pub struct Timing {
     /// that gets no answer from a live controller is given up; from a silent one, the run
     /// waits for `silence` to end it.
     pub alive: Duration,
+    /// The reply timeout is learned from the bus's round trips, `reply` its ceiling
+    /// ([`Patience`]: a wall-clock bus); else it is `reply` (a simulated clock).
+    pub adaptive: bool,
 }
 
 impl Timing {
     /// Timing with the given silence, repeats every `reply` up to 12 times, and the
-    /// heartbeat supervision's 500 ms for "alive".
+    /// heartbeat supervision's 500 ms for "alive", `reply` fixed.
     pub const fn new(reply: Duration, silence: Duration) -> Timing {
         Timing {
             reply,
             retries: 12,
             silence,
             alive: Duration::from_millis(500),
+            adaptive: false,
         }
     }
 }
@@ -147,6 +153,11 @@ where
             rng: Xoshiro256PlusPlus::seed_from_u64(crate::seeds::Seeds::of(seed).runner),
             trial: 0,
             timing,
+            patience: if timing.adaptive {
+                Patience::adaptive(timing.reply)
+            } else {
+                Patience::fixed(timing.reply)
+            },
             stats: RunnerStats::default(),
         }
     }
@@ -154,6 +165,16 @@ where
     /// The runner's patience.
     pub fn timing(&self) -> Timing {
         self.timing
+    }
+
+    /// The reply timeout as learned so far (the tables' transfers wait by it too).
+    pub fn patience(&self) -> &Patience {
+        &self.patience
+    }
+
+    /// The reply timeout, to feed it a measured round trip.
+    pub fn patience_mut(&mut self) -> &mut Patience {
+        &mut self.patience
     }
 
     /// Ends the runner: its rig.
@@ -213,14 +234,24 @@ where
             msg,
             Message::SessionConfig(_) | Message::ConfirmedSessionConfig(_)
         );
-        for _ in 0..=self.timing.retries {
+        let first = self.rig.now();
+        let mut repeats = 0;
+        loop {
             self.rig.send(NodeId::Controller, msg)?;
             let since = self.rig.now();
             loop {
-                let wait = self.timing.reply.saturating_sub(self.rig.now() - since);
+                let wait = self
+                    .patience
+                    .wait(repeats)
+                    .saturating_sub(self.rig.now() - since);
                 match self.rig.next_event(wait, self.timing.silence)? {
                     None => break,
-                    Some(Event::Controller(m)) if m == echo => return Ok(Ok(())),
+                    Some(Event::Controller(m)) if m == echo => {
+                        if repeats == 0 {
+                            self.patience.answered(self.rig.now() - since);
+                        }
+                        return Ok(Ok(()));
+                    }
                     Some(Event::Controller(Message::ErrorReport(e))) if config => match e.code {
                         codes::CONFIG_REJECTED => return Ok(Err(Refused::Config(e.detail))),
                         codes::GUARD_REFUSED if e.detail >> 8 == 1 => {
@@ -231,9 +262,18 @@ where
                     Some(_) => {}
                 }
             }
+            // counted after every try that went unanswered, the last one too
             self.stats.mode_repeats += 1;
+            let stalled = self.rig.now() - first;
+            if self
+                .patience
+                .exhausted(repeats + 1, stalled, self.timing.retries + 1)
+            {
+                break;
+            }
+            repeats += 1;
         }
-        Ok(Err(Refused::Unanswered(self.timing.retries + 1)))
+        Ok(Err(Refused::Unanswered(repeats + 1)))
     }
 
     /// Tells the controller the session is over (`ModeChange{Idle}`). A node that ended its
@@ -327,14 +367,19 @@ where
         let expect_reports = if kind.is_grasp() { 2 } else { 1 };
         let mut closed = false;
         let mut since = self.rig.now();
+        // the last sign of the trial, and the repeats since it
+        let mut sign = since;
+        let mut stalled = 0;
         let mut tries = 0;
         loop {
-            let wait = self.timing.reply.saturating_sub(self.rig.now() - since);
+            let wait = self.patience.wait(stalled);
+            let wait = wait.saturating_sub(self.rig.now() - since);
             let event = self.rig.next_event(wait, self.timing.silence)?;
             let Some(event) = event else {
                 // no sign of the trial within the reply timeout: the target (or its final
                 // report) was lost; the controller answers a repeat of the same trial
-                if tries >= self.timing.retries {
+                let quiet = self.rig.now() - sign;
+                if self.patience.exhausted(tries, quiet, self.timing.retries) {
                     if self.rig.since_heard() > self.timing.alive {
                         // not lost frames: the controller itself is silent; wait for it
                         // until the bus timeout ends the run (`BusSilent`)
@@ -346,6 +391,7 @@ where
                     return Ok(rec);
                 }
                 tries += 1;
+                stalled += 1;
                 self.stats.target_repeats += 1;
                 self.send_all(&start)?;
                 since = self.rig.now();
@@ -386,6 +432,7 @@ where
                         // the reason (sent right before the abort) was lost: a repeat of the
                         // start is answered with both again
                         tries += 1;
+                        stalled += 1;
                         self.stats.target_repeats += 1;
                         self.send_all(&start)?;
                         since = self.rig.now();
@@ -406,7 +453,12 @@ where
                 Event::Controller(_) => continue,
                 Event::Progress => {}
             }
-            since = self.rig.now();
+            let now = self.rig.now();
+            if stalled == 0 {
+                // a gap with no repeat in it: the bus's round trip and the controller's turn
+                self.patience.answered(now - since);
+            }
+            (since, sign, stalled) = (now, now, 0);
             // a grasp ends when the gripper has closed after both reports
             if rec.reports.len() >= expect_reports && (closed || !kind.is_grasp()) {
                 return Ok(rec);

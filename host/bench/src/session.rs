@@ -146,6 +146,7 @@ impl<'a, S: Suite> Setup<'a, S> {
         let timing = Timing {
             alive: profile.heartbeat_timeout,
             retries: profile.retries,
+            adaptive: profile.adaptive_reply,
             ..Timing::new(profile.reply, silence)
         };
         let mut runner = Runner::new(rig, spec.seed, timing);

@@ -166,8 +166,12 @@ impl SweepArgs {
 }
 
 impl StudyArgs {
-    /// The study of `trn study FILE`, where its outputs go (`out`) and its JSON.
-    pub fn study(&self) -> Result<(Study, std::path::PathBuf, std::path::PathBuf), LabError> {
+    /// The study of `trn study FILE`, where its outputs go (`out`) and its JSON; `stop` is
+    /// asked while it is built ([`StudyFile::study_unless`]).
+    pub fn study(
+        &self,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(Study, std::path::PathBuf, std::path::PathBuf), LabError> {
         let file = StudyFile::read(&self.file)?;
         let out = self
             .out
@@ -177,10 +181,11 @@ impl StudyArgs {
             Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
             _ => ".".into(),
         };
-        let s = file.study(
+        let s = file.study_unless(
             &dir,
             &self.over.overrides(self.config.as_deref()),
             Some(&out),
+            stop,
         )?;
         let json = match &self.report {
             Some(p) => p.clone(),

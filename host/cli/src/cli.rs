@@ -387,9 +387,10 @@ pub struct Common {
     /// with the same file go on with the same tables.
     #[arg(long)]
     pub tables: Option<PathBuf>,
-    /// Faults on the in-process bus, each independent per frame and receiver, seeded by the
-    /// run's seed: `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, each once,
-    /// P in [0, 1]).
+    /// Faults, each independent per frame, seeded by the run's seed:
+    /// `drop=P,dup=P,reorder=P,corrupt=P,truncate=P` (any subset, each once, P in [0, 1]).
+    /// On the in-process bus per frame and receiver; on any other bus on each frame this
+    /// process sends and receives (a lossy line on demand).
     #[arg(long)]
     pub faults: Option<trn_protocol::bus::FaultConfig>,
 }

@@ -286,3 +286,31 @@ fn an_interrupt_while_the_held_out_set_is_drawn_ends_the_run() {
     assert_eq!(r["interrupted"], true);
     assert_eq!(r["learning_curve"].as_array().map_or(0, Vec::len), 0);
 }
+
+/// An interrupt while a large study is still being built (a grid of 100,000 configurations
+/// takes seconds before its first run) ends it there and says so, with nothing written.
+#[test]
+fn an_interrupt_while_a_study_is_built_ends_it_before_any_run() {
+    let d = dir("study-build");
+    let values: Vec<String> = (0..100_000)
+        .map(|i| format!("{}", 0.3 + i as f64 * 1e-6))
+        .collect();
+    let grid = format!(
+        "name = \"grid\"\nseeds = {{ first = 100, count = 1 }}\n[base]\nplant = \"ideal\"\n\
+         trials = 5\neval_targets = 2\ngrasps = 0\n[[axis]]\nkey = \"joints.*.damping_ratio\"\n\
+         values = [{}]\n",
+        values.join(", ")
+    );
+    let file = d.join("grid.toml");
+    std::fs::write(&file, grid).unwrap();
+    let out_dir = d.join("out");
+    let child = start(&["study", s(&file), "--out", s(&out_dir), "--quiet"]);
+    std::thread::sleep(Duration::from_millis(500));
+    signal(&child, "-INT");
+    let out = ended_within_20_s(child, "still building the study");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("while the study was being built"), "{err}");
+    assert!(!out_dir.exists(), "something was written");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -36,6 +36,11 @@ pub struct SweepSpec {
 impl SweepSpec {
     /// The study: its variants over its seeds, each variant's plant written to `out`.
     pub fn study(&self) -> Result<Study> {
+        self.study_unless(&|| false)
+    }
+
+    /// [`SweepSpec::study`], ended early when `stop` says so ([`StudyFile::study_unless`]).
+    pub fn study_unless(&self, stop: &dyn Fn() -> bool) -> Result<Study> {
         let (file, dir) = match &self.study {
             Some(p) => (StudyFile::read(p)?, parent(p)),
             None => (
@@ -43,7 +48,7 @@ impl SweepSpec {
                 PathBuf::from("."),
             ),
         };
-        file.study(&dir, &self.over, Some(&self.out))
+        file.study_unless(&dir, &self.over, Some(&self.out), stop)
     }
 }
 

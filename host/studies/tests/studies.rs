@@ -179,6 +179,50 @@ fn an_interrupt_while_the_plant_files_are_written_starts_no_run() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Building a study asks whether to stop before each configuration (of the grid's
+/// crossing and of the runs made from them) and ends with `Interrupted` when told to. Fails
+/// if the build is not asked, goes on after a stop, or a stop is taken for a study.
+#[test]
+fn an_interrupt_while_a_study_is_built_ends_it_before_anything_runs() {
+    // 2 rows x 2 widths x 500 damping ratios: 2,000 configurations
+    let ratios: Vec<String> = (0..500)
+        .map(|i| format!("{}", 0.3 + i as f64 * 1e-4))
+        .collect();
+    let grid = format!(
+        "{TINY}[[axis]]\nkey = \"joints.*.damping_ratio\"\nvalues = [{}]\n",
+        ratios.join(", ")
+    );
+    let file = StudyFile::parse(&grid, "grid").unwrap();
+    let dir = scratch("build-stop");
+    let plants = dir.join("plants");
+    let build = |at: usize| {
+        let asked = AtomicUsize::new(0);
+        let made = file.study_unless(
+            Path::new("."),
+            &Overrides::default(),
+            Some(&plants),
+            &|| asked.fetch_add(1, Ordering::Relaxed) >= at,
+        );
+        (made, asked.load(Ordering::Relaxed))
+    };
+    for at in [0, 3, 1500] {
+        let (made, asked) = build(at);
+        match made {
+            Err(trn_bench::LabError::Interrupted(what)) => assert!(what.contains("study")),
+            other => panic!("stop at {at}: {:?}", other.map(|s| s.jobs.len())),
+        }
+        assert_eq!(asked, at + 1, "asked after the stop");
+    }
+    let (made, asked) = build(usize::MAX);
+    assert_eq!(made.unwrap().jobs.len(), 2 * 2 * 500 * 2);
+    assert!(
+        asked >= 2_000,
+        "asked {asked} times for 2,000 configurations"
+    );
+    assert!(!plants.exists(), "building a study writes no file");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `--jobs 2` gives the runs and the table of `--jobs 1`, and so do two shards merged.
 #[test]
 fn parallel_and_sharded_studies_give_the_results_of_one_worker() {

@@ -78,3 +78,26 @@ where
     }
     Ok(())
 }
+
+/// A fresh host node on `port` until `stop`: the project preset for the default cameras as
+/// its reset configuration (a session's `SessionConfig` replaces it), its store in memory,
+/// its guard seeded from `guard` ([`crate::board::guard_seed`]), the host's timing. What a
+/// test or a benchmark puts on the far end of a bus (one end of a pseudo-terminal pair) to
+/// play a board; `controller-node` is the same with a tables file and the OS's entropy.
+pub fn run_fresh<P>(port: P, guard: u64, stop: &AtomicBool) -> Result<(), trn_protocol::Error>
+where
+    P: embedded_can::nb::Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    use trn_controller::presets::{self, Ablation, ImageSize, Preset};
+    let reset = presets::configure(Preset::Project, Ablation::None, ImageSize::DEFAULT);
+    // a store in memory: nothing to open, nothing that fails
+    let (mut b, restored) = crate::board::boot(reset, None)
+        .map_err(|_| trn_protocol::Error::Io(std::io::ErrorKind::Other))?;
+    let mut node = crate::board::node(
+        &mut b,
+        restored.ok(),
+        crate::board::guard_seed(guard),
+        trn_node::NodeConfig::HOST,
+    );
+    run(port, &mut b, &mut node, &WallClock::start(), stop)
+}

@@ -7,7 +7,7 @@
 //! | `slcan:qemu` | the firmware in QEMU (processor in the loop) | [`slcan_qemu::SlcanPort`] over the emulated UART | wall |
 //! | `slcan:/dev/ttyACM0` | a board on the CAN bus (`--external-controller`) | [`slcan_serial::SerialSlcan`]: a USB-CAN adapter speaking SLCAN | wall |
 //!
-//! [`BusProfile`] says what each one can do (timing, faults, a tables file, host-only laws);
+//! [`BusProfile`] says what each one can do (timing, a tables file, host-only laws);
 //! [`Clock`] is the time the runner, the rig and the node read.
 
 pub mod board;

@@ -109,6 +109,27 @@ impl embedded_can::blocking::Can for SerialSlcan {
     }
 }
 
+/// The same port seen through the non-blocking trait (a controller node's loop on a serial
+/// adapter: [`crate::controller_loop::run`]): a receive takes what already arrived, waiting at
+/// most a millisecond for the line.
+impl embedded_can::nb::Can for SerialSlcan {
+    type Frame = CanFrame;
+    type Error = Error;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Error> {
+        embedded_can::blocking::Can::transmit(self, frame).map_err(nb::Error::Other)?;
+        Ok(None)
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, Error> {
+        match self.receive_timeout(Duration::from_millis(1)) {
+            Ok(Some(f)) => Ok(f),
+            Ok(None) => Err(nb::Error::WouldBlock),
+            Err(e) => Err(nb::Error::Other(e)),
+        }
+    }
+}
+
 impl ReceiveTimeout for SerialSlcan {
     fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, Error> {
         let deadline = Instant::now() + timeout;
@@ -147,6 +168,49 @@ impl ReceiveTimeout for SerialSlcan {
                 Err(e) => return Err(io(e)),
             }
         }
+    }
+}
+
+/// A node served on one end of a pseudo-terminal pair, in a thread of its own, and the other
+/// end's path for `--bus slcan:PATH`: a serial line without an adapter (tests, benchmarks).
+#[cfg(unix)]
+pub struct PtyPeer<T> {
+    path: String,
+    // the end the run opens by its path: kept open while the peer runs
+    _ours: serialport::TTYPort,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<T>,
+}
+
+#[cfg(unix)]
+impl<T: Send + 'static> PtyPeer<T> {
+    /// Starts `serve` on one end (until the flag it is given is set) and keeps the other.
+    pub fn spawn(
+        serve: impl FnOnce(SerialSlcan, &std::sync::atomic::AtomicBool) -> T + Send + 'static,
+    ) -> Result<PtyPeer<T>, String> {
+        let (theirs, ours) =
+            serialport::TTYPort::pair().map_err(|e| format!("a pseudo-terminal pair: {e}"))?;
+        let path = ours.name().ok_or("the pseudo-terminal has no name")?;
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || serve(SerialSlcan::on(Box::new(theirs)), &flag));
+        Ok(PtyPeer {
+            path,
+            _ours: ours,
+            stop,
+            thread,
+        })
+    }
+
+    /// The path of the end a run opens (`--bus slcan:PATH`).
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Stops the peer and returns what `serve` returned (`Err`: it panicked).
+    pub fn finish(self) -> std::thread::Result<T> {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        self.thread.join()
     }
 }
 

@@ -5,6 +5,7 @@ use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::frame::{fd_len_for, CanFrame};
+use crate::id::CanId;
 
 /// Which frames the corruption injector may corrupt.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -193,6 +194,52 @@ impl Injector {
         } else {
             self.rng.next_u64() % n
         }
+    }
+
+    /// What becomes of `frame` on its way to one receiver under `f`, counted in `stats`
+    /// (all but `sent` and `delivered`): no copy (dropped), or one or two copies, each with
+    /// the number of later frames it waits for (0: delivered now). The draws, in order: drop,
+    /// corrupt (when `f` may corrupt this frame), truncate, duplicate, and each copy's delay.
+    pub(super) fn fate(
+        &mut self,
+        f: &FaultConfig,
+        frame: &CanFrame,
+        stats: &mut BusStats,
+    ) -> [Option<(CanFrame, u32)>; 2] {
+        if self.chance(f.drop) {
+            stats.dropped += 1;
+            return [None, None];
+        }
+        let long = CanId::from_raw(frame.raw_id())
+            .map(|id| !id.kind.is_single_frame())
+            .unwrap_or(false);
+        let mut copy = *frame;
+        let may_corrupt = f.corrupt_scope == CorruptScope::AllFrames || long;
+        if may_corrupt && self.chance(f.corrupt) {
+            copy = self.corrupt(&copy);
+            stats.corrupted += 1;
+        }
+        if self.chance(f.truncate) {
+            copy = self.truncate(&copy);
+            stats.truncated += 1;
+        }
+        let copies = if self.chance(f.duplicate) {
+            stats.duplicated += 1;
+            2
+        } else {
+            1
+        };
+        let mut out = [None, None];
+        for slot in out.iter_mut().take(copies) {
+            let delay = if f.max_delay_frames > 0 && self.chance(f.delay) {
+                stats.delayed += 1;
+                1 + self.below(f.max_delay_frames as u64) as u32
+            } else {
+                0
+            };
+            *slot = Some((copy, delay));
+        }
+        out
     }
 
     pub(super) fn corrupt(&mut self, frame: &CanFrame) -> CanFrame {

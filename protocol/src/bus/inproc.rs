@@ -4,12 +4,11 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::faults::{BusStats, CorruptScope, FaultConfig, Injector};
+use super::faults::{BusStats, FaultConfig, Injector};
 use super::ReceiveTimeout;
 use crate::envelope::BusMode;
 use crate::error::{Error, Result};
 use crate::frame::CanFrame;
-use crate::id::CanId;
 
 #[derive(Debug)]
 struct PortState {
@@ -173,9 +172,6 @@ impl Inner {
         }
         self.stats.sent += 1;
         let f = self.faults;
-        let long = CanId::from_raw(frame.raw_id())
-            .map(|id| !id.kind.is_single_frame())
-            .unwrap_or(false);
         for port in 0..self.ports.len() {
             if port == from || !self.ports[port].alive {
                 continue;
@@ -184,35 +180,18 @@ impl Inner {
                 deliver(self, port, *frame);
                 continue;
             }
-            if self.inj.chance(f.drop) {
-                self.stats.dropped += 1;
-                continue;
-            }
-            let mut copy = *frame;
-            let may_corrupt = f.corrupt_scope == CorruptScope::AllFrames || long;
-            if may_corrupt && self.inj.chance(f.corrupt) {
-                copy = self.inj.corrupt(&copy);
-                self.stats.corrupted += 1;
-            }
-            if self.inj.chance(f.truncate) {
-                copy = self.inj.truncate(&copy);
-                self.stats.truncated += 1;
-            }
-            let copies = if self.inj.chance(f.duplicate) {
-                self.stats.duplicated += 1;
-                2
-            } else {
-                1
-            };
-            for _ in 0..copies {
-                if f.max_delay_frames > 0 && self.inj.chance(f.delay) {
-                    let remaining = 1 + self.inj.below(f.max_delay_frames as u64) as u32;
+            for (copy, remaining) in self
+                .inj
+                .fate(&f, frame, &mut self.stats)
+                .into_iter()
+                .flatten()
+            {
+                if remaining > 0 {
                     self.delayed.push(Delayed {
                         port,
                         frame: copy,
                         remaining,
                     });
-                    self.stats.delayed += 1;
                 } else {
                     deliver(self, port, copy);
                 }
@@ -332,6 +311,7 @@ impl ReceiveTimeout for InProcPort {
 
 #[cfg(test)]
 mod tests {
+    use super::super::faults::CorruptScope;
     use super::*;
     use embedded_can::blocking::Can as _;
 

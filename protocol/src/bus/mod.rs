@@ -2,6 +2,7 @@
 //!
 //! * [`InProcBus`]: an in-process virtual CAN bus with fault injection (the default);
 //! * [`RecordingPort`]: wraps any port and records its traffic as a candump log;
+//! * [`FaultyPort`]: wraps any port and injects faults into its traffic both ways;
 //! * `SocketCanPort` (feature `socketcan`, Linux): vcan or real hardware.
 
 use std::time::Duration;
@@ -10,6 +11,7 @@ use crate::error::Result;
 use crate::frame::CanFrame;
 
 mod faults;
+mod faulty;
 mod inproc;
 mod recording;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -18,6 +20,7 @@ mod socketcan;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub use self::socketcan::SocketCanPort;
 pub use faults::{BusStats, CorruptScope, FaultConfig};
+pub use faulty::FaultyPort;
 pub use inproc::{InProcBus, InProcPort};
 pub use recording::RecordingPort;
 

@@ -78,6 +78,8 @@ where
     let timing = runner.timing();
     let mut stalls = 0;
     let mut since = runner.rig().now();
+    // the last chunk that came (or the start)
+    let mut progress = since;
     let ask = |runner: &mut Runner<P>, index: u16| -> Result<()> {
         let req = TableReadRequest { index };
         runner.rig_mut().send(NodeId::Controller, req.into())
@@ -90,13 +92,18 @@ where
             }
             next += 1;
         }
-        let wait = timing.reply.saturating_sub(runner.rig().now() - since);
+        let wait = runner.patience().wait(stalls);
+        let wait = wait.saturating_sub(runner.rig().now() - since);
         let event = runner.rig_mut().next_event(wait, timing.silence)?;
         let msg = match event {
             None => {
                 // no chunk within the reply timeout: ask again for every one missing
                 stalls += 1;
-                if stalls > timing.retries {
+                let quiet = runner.rig().now() - progress;
+                if runner
+                    .patience()
+                    .exhausted(stalls, quiet, timing.retries + 1)
+                {
                     return Err(LabError::Controller(format!(
                         "stopped answering requests for its tables' chunks ({received} of {count} read)"
                     )));
@@ -120,6 +127,7 @@ where
                 asked.retain(|&a| a != c.index);
                 stalls = 0;
                 since = runner.rig().now();
+                progress = since;
             }
         } else if let Some(detail) = failed(&msg, table_op::READ) {
             // beyond the image: a request corrupted on its way (a repeat asks again)

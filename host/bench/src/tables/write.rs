@@ -143,6 +143,8 @@ where
     let (mut base, mut sent) = (from, from);
     let (mut stalls, mut same) = (0, 0);
     let mut since = runner.rig().now();
+    // the last acknowledgement that moved the window (or the start)
+    let mut progress = since;
     while base < count {
         while sent < count && ((sent - base) as usize) < WINDOW {
             let at = sent as usize * CHUNK;
@@ -151,11 +153,16 @@ where
             runner.rig_mut().send(NodeId::Controller, chunk.into())?;
             sent += 1;
         }
-        let wait = timing.reply.saturating_sub(runner.rig().now() - since);
+        let wait = runner.patience().wait(stalls);
+        let wait = wait.saturating_sub(runner.rig().now() - since);
         let msg = match runner.rig_mut().next_event(wait, timing.silence)? {
             None => {
                 stalls += 1;
-                if stalls > timing.retries {
+                let quiet = runner.rig().now() - progress;
+                if runner
+                    .patience()
+                    .exhausted(stalls, quiet, timing.retries + 1)
+                {
                     // the controller stopped taking chunks: begin again, it says where it is
                     return Ok(Next::Begin);
                 }
@@ -174,6 +181,7 @@ where
                     sent = sent.max(base);
                     (stalls, same) = (0, 0);
                     since = runner.rig().now();
+                    progress = since;
                 } else if a.next == base {
                     same += 1;
                     if same >= WINDOW {

@@ -94,6 +94,8 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // what a study's build asks before each configuration
+    let stop = || interrupts.requested();
     let result = match &cli.command {
         Cmd::Train(a) => a
             .spec()
@@ -116,18 +118,26 @@ fn main() -> ExitCode {
         Cmd::Decode(a) => {
             trn_sim::decode::decode(&a.log, a.summary, &mut std::io::stdout().lock()).map(drop)
         }
-        Cmd::Compare(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
-            let opts = a.opts.options(&a.out);
-            studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)
-        }),
-        Cmd::Sweep(a) => a.spec().study().map_err(CliError::from).and_then(|s| {
-            trn_bench::fsio::create_folder(&a.out)?;
-            let (opts, json) = (a.opts.options(&a.out), a.out.join("sweep.json"));
-            studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
-        }),
+        Cmd::Compare(a) => a
+            .spec()
+            .study_unless(&stop)
+            .map_err(CliError::from)
+            .and_then(|s| {
+                let opts = a.opts.options(&a.out);
+                studies::run(&s, &opts, a.opts.quiet, &interrupts, a.report.as_deref()).map(drop)
+            }),
+        Cmd::Sweep(a) => a
+            .spec()
+            .study_unless(&stop)
+            .map_err(CliError::from)
+            .and_then(|s| {
+                trn_bench::fsio::create_folder(&a.out)?;
+                let (opts, json) = (a.opts.options(&a.out), a.out.join("sweep.json"));
+                studies::run(&s, &opts, a.opts.quiet, &interrupts, Some(&json)).map(drop)
+            }),
         Cmd::Lifelong(a) => lifelong_run(&a.spec(), &a.opts, &interrupts),
         Cmd::Study(a) => a
-            .study()
+            .study(&stop)
             .map_err(CliError::from)
             .and_then(|(s, out, json)| {
                 let opts = a.opts.options(&out);

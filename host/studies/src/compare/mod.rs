@@ -40,6 +40,11 @@ pub struct CompareSpec {
 impl CompareSpec {
     /// The study: its configurations over its seeds.
     pub fn study(&self) -> Result<Study> {
+        self.study_unless(&|| false)
+    }
+
+    /// [`CompareSpec::study`], ended early when `stop` says so ([`StudyFile::study_unless`]).
+    pub fn study_unless(&self, stop: &dyn Fn() -> bool) -> Result<Study> {
         let (file, dir) = match &self.study {
             Some(p) => (StudyFile::read(p)?, parent(p)),
             None => (
@@ -47,7 +52,7 @@ impl CompareSpec {
                 PathBuf::from("."),
             ),
         };
-        file.study(&dir, &self.over, Some(&self.out))
+        file.study_unless(&dir, &self.over, Some(&self.out), stop)
     }
 }
 

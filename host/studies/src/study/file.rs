@@ -228,6 +228,18 @@ impl StudyFile {
     /// `plants/KEY.toml` (the runs name that file; [`Study::write_plants`] writes it, as
     /// running the study does), so each row can be run again alone with `--config`.
     pub fn study(&self, dir: &Path, over: &Overrides, plants: Option<&Path>) -> Result<Study> {
+        self.study_unless(dir, over, plants, &|| false)
+    }
+
+    /// [`StudyFile::study`], asking `stop` before each configuration is made (a study of
+    /// 100,000 takes seconds to build): when it says stop, [`LabError::Interrupted`].
+    pub fn study_unless(
+        &self,
+        dir: &Path,
+        over: &Overrides,
+        plants: Option<&Path>,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Study> {
         let mut base = self.base.clone();
         base.plant = over.plant.clone().or(base.plant);
         base.trials = over.trials.or(base.trials);
@@ -244,7 +256,7 @@ impl StudyFile {
                 self.name
             )));
         }
-        let configs = self.configurations(over)?;
+        let configs = self.configurations(over, stop)?;
         // counted before any seed or run is made: a huge count is refused, not allocated
         let seed_count = match (&self.seeds, over.seeds) {
             (Seeds::Range { .. }, Some(n)) => n,
@@ -273,6 +285,9 @@ impl StudyFile {
         let mut runs = vec![];
         let mut files = vec![];
         for c in configs {
+            if stop() {
+                return Err(LabError::Interrupted("the study was being built"));
+            }
             let mut layers = vec![&base];
             layers.extend(c.layers.iter());
             let (mut spec, changed) = resolve(&layers, dir).map_err(|e| {
@@ -302,7 +317,11 @@ impl StudyFile {
     }
 
     /// The configurations: every row (of `over.configs`) crossed with every axis value.
-    fn configurations(&self, over: &Overrides) -> Result<Vec<Configuration>> {
+    fn configurations(
+        &self,
+        over: &Overrides,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Vec<Configuration>> {
         let implicit = [Settings::default()];
         let rows: &[Settings] = if self.rows.is_empty() {
             &implicit
@@ -340,6 +359,9 @@ impl StudyFile {
             }
             let mut next = vec![];
             for c in &configs {
+                if stop() {
+                    return Err(LabError::Interrupted("the study was being built"));
+                }
                 for v in &axis.values {
                     let layer = axis_layer(&axis.key, v).map_err(|e| {
                         LabError::Usage(format!("study {}: axis {}: {e}", self.name, axis.key))
