@@ -172,11 +172,6 @@ where
         &self.patience
     }
 
-    /// The reply timeout, to feed it a measured round trip.
-    pub fn patience_mut(&mut self) -> &mut Patience {
-        &mut self.patience
-    }
-
     /// Ends the runner: its rig.
     pub fn into_rig(self) -> Rig<P> {
         self.rig
