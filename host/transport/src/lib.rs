@@ -15,6 +15,7 @@ pub mod clock;
 pub mod controller_loop;
 mod error;
 pub mod inproc;
+pub mod node_bus;
 pub mod peer;
 pub mod slcan_qemu;
 pub mod slcan_serial;

@@ -16,16 +16,8 @@ use std::process::ExitCode;
 #[derive(Debug, Parser)]
 #[command(name = "controller-node", version)]
 struct Args {
-    /// SocketCAN interface.
-    #[arg(long, default_value = "vcan0", conflicts_with = "slcan")]
-    iface: String,
-    /// A serial SLCAN adapter (a USB-CAN adapter in the Lawicel format, or one end of a
-    /// pseudo-terminal) instead of SocketCAN; CAN 2.0 frames only, as the adapters carry.
-    #[arg(long, value_name = "DEVICE")]
-    slcan: Option<String>,
-    /// The adapter's CAN bit rate (`--slcan`).
-    #[arg(long, default_value_t = 500_000, requires = "slcan")]
-    bitrate: u32,
+    #[command(flatten)]
+    bus: trn_transport::node_bus::NodeBusArgs,
     /// Keep the learned tables in this file (created if missing), as a board keeps them in
     /// its flash: restored at start, saved when the node saves (on entering Mature, when the
     /// runner asks, at exit). Without it the store is in memory and the tables last as long
@@ -76,17 +68,8 @@ fn run(a: &Args) -> Result<(), String> {
         signal_hook::flag::register(signal, stop.clone()).map_err(|e| e.to_string())?;
     }
     let clock = WallClock::start();
-    let ran = match &a.slcan {
-        Some(device) => {
-            let port = trn_transport::slcan_serial::SerialSlcan::open(device, a.bitrate)?;
-            controller_loop::run(port, &mut b, &mut node, &clock, &stop)
-        }
-        None => {
-            let port = trn_protocol::bus::SocketCanPort::open(&a.iface)
-                .map_err(|e| format!("SocketCAN interface {}: {e}", a.iface))?;
-            controller_loop::run(port, &mut b, &mut node, &clock, &stop)
-        }
-    };
+    let port = a.bus.open()?;
+    let ran = controller_loop::run(port, &mut b, &mut node, &clock, &stop);
     // what changed since the last save is kept before the process ends
     let kept = board::save_now(&mut node, &mut b, &clock);
     let s = node.stats();
