@@ -1,12 +1,13 @@
 """Environment steps per second: SoftArm-v0 (the lab's plant, and the ``dt_s`` option),
 single and as the native vector env, beside MuJoCo's Reacher-v5 when MuJoCo is installed.
 
-    python python/examples/bench_steps.py [--seconds 3] [--num-envs 2] [--out FILE.md]
+    python python/examples/bench_steps.py [--seconds 3] [--num-envs 2] [--frames] [--out FILE.md]
 
 Random actions, episodes reset as they end (the reset counts: it is part of stepping an
 environment); each figure is environment steps (moves) per second of wall-clock time in
 this process. The single and vector figures are measured in one run, so they compare on
-one machine under one load.
+one machine under one load. ``--frames`` adds a row with the camera frames in the
+observation (``frames=True``, the default ``frame_scale``).
 """
 
 import argparse
@@ -50,6 +51,7 @@ def main():
     ap.add_argument("--seconds", type=float, default=3.0, help="per measurement")
     ap.add_argument("--num-envs", type=int, default=2, help="arms of the vector env")
     ap.add_argument("--fast-dt", type=float, default=0.01, help="dt_s of the fast rows")
+    ap.add_argument("--frames", action="store_true", help="also SoftArm-v0 with frames=True")
     ap.add_argument("--out", help="also write the table here (markdown)")
     a = ap.parse_args()
     s, n, fast = a.seconds, a.num_envs, {"dt_s": a.fast_dt}
@@ -66,6 +68,8 @@ def main():
     rows.append(("SoftArm-v0", f"native x{n}", vector(gym.make_vec(sid, num_envs=n), s)))
     rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", "single", single(gym.make(sid, **fast), s)))
     rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", f"native x{n}", vector(gym.make_vec(sid, num_envs=n, **fast), s)))
+    if a.frames:
+        rows.append(("SoftArm-v0 frames=True", "single", single(gym.make(sid, frames=True), s)))
     ref = {mode.split()[0]: r for env, mode, r in rows if env == "Reacher-v5"}
     singles = {env: r for env, mode, r in rows if mode == "single"}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")

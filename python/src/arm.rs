@@ -28,8 +28,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::markers::Tracker;
+use trn_plant::pixels::PixelVision;
 use trn_plant::targets::{HeldOut, Target};
 use trn_plant::{uniform, Plant, PointStatus, Readings, SimConfig, Vector3};
+use trn_vision::CaptureProtocol;
 
 use crate::render;
 
@@ -105,6 +107,26 @@ pub struct Sim {
     status: Vec<u8>,
     truth: Truth,
     moves: u32,
+    /// The seed of the episode (its frames' noise is drawn from it and the move).
+    episode_seed: u64,
+}
+
+/// Appends the `scale` x `scale` block means (rounded) of the `width`-wide frame `px` to
+/// `out`, row by row; a partial block at the right or bottom edge is left out.
+fn bin(px: &[u8], width: usize, scale: usize, out: &mut Vec<u8>) {
+    let (w, h) = (width / scale, px.len() / width / scale);
+    let area = (scale * scale) as u32;
+    for by in 0..h {
+        for bx in 0..w {
+            let sum: u32 = (0..scale)
+                .flat_map(|dy| {
+                    let row = (by * scale + dy) * width + bx * scale;
+                    px[row..row + scale].iter().map(|&v| v as u32)
+                })
+                .sum();
+            out.push(((sum + area / 2) / area) as u8);
+        }
+    }
 }
 
 fn dist(a: &[f64], b: &[f64]) -> f64 {
@@ -156,6 +178,7 @@ impl Sim {
             status: vec![3; k],
             truth: Truth::default(),
             moves: 0,
+            episode_seed: 0,
         })
     }
 
@@ -247,8 +270,40 @@ impl Sim {
         self.commanded = start;
         self.track = Tracker::default();
         self.moves = 0;
+        self.episode_seed = seed;
         self.capture();
         Ok(())
+    }
+
+    /// The frames of the arm's lights as the cameras take them now, one capture each, one
+    /// light per frame as the camera processor lights them (stage 1: p then q; stage 2: the
+    /// centre light), every pixel rendered (`trn_plant::pixels`, the plant's `[pixels]`
+    /// section), each `scale` x `scale` block of pixels averaged (binning; rounded):
+    /// `(width, height, frames per camera, samples)`, the samples camera by camera, frame
+    /// by frame, row by row. The noise is drawn from the episode's seed and the move, so an
+    /// arm restored from its state gives the same frames.
+    pub fn frames(&self, scale: u32) -> Result<(u32, u32, usize, Vec<u8>), String> {
+        let pose = self.plant.gripper_pose();
+        let marks = if self.stage == 1 {
+            lights(self.plant.config(), &pose).to_vec()
+        } else {
+            vec![pose.centre_mm]
+        };
+        let protocol = CaptureProtocol::sequential(marks.len()).map_err(|e| e.to_string())?;
+        let vision = PixelVision::from_config(&self.plant.config().pixels);
+        let (mut w, mut h, mut out) = (0, 0, Vec::new());
+        for cam in 0..2 {
+            let seed = self.episode_seed ^ ((self.moves as u64) << 40) ^ ((cam as u64) << 56);
+            for f in self
+                .plant
+                .capture_frames(cam, &marks, &protocol, &vision, seed)
+                .map_err(|e| e.to_string())?
+            {
+                (w, h) = (f.width() / scale, f.height() / scale);
+                bin(f.as_raw(), f.width() as usize, scale as usize, &mut out);
+            }
+        }
+        Ok((w, h, protocol.frames(), out))
     }
 
     /// One move (see [`Arm::step`]).
@@ -393,6 +448,24 @@ impl Arm {
     fn observation(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
         let s = &self.sim;
         (s.lights.clone(), s.status.clone(), s.target_of().0)
+    }
+
+    /// The cameras' frames of the arm's lights now (see `Sim::frames`): `(width, height,
+    /// frames per camera, samples)`, each `scale` x `scale` block of pixels averaged.
+    #[pyo3(signature = (scale = 4))]
+    fn frames<'py>(
+        &self,
+        py: Python<'py>,
+        scale: u32,
+    ) -> PyResult<(u32, u32, usize, Bound<'py, PyBytes>)> {
+        if !(1..=16).contains(&scale) {
+            return Err(PyValueError::new_err("scale is 1..=16"));
+        }
+        let sim = &self.sim;
+        let (w, h, n, px) = py
+            .detach(|| sim.frames(scale))
+            .map_err(PyRuntimeError::new_err)?;
+        Ok((w, h, n, PyBytes::new(py, &px)))
     }
 
     /// What the agent is not shown: the noise-free truth, the errors, the arm's state.

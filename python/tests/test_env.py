@@ -213,3 +213,56 @@ def test_vecnormalize_takes_the_flat_observation():
     for _ in range(4):
         obs, rewards, dones, infos = venv.step(np.zeros((2, 5), dtype=np.float32))
     assert obs.shape == (2, 36) and np.all(np.isfinite(obs)), sb3.__version__
+
+
+def _centroid(frame, scale):
+    """The intensity-weighted centre (full-resolution pixels) of what stands above the
+    frame's background, or None when nothing does."""
+    f = frame.astype(np.float64)
+    background = np.median(f)
+    w = np.clip(f - background - 3.0, 0.0, None)
+    if w.sum() == 0:
+        return None
+    ys, xs = np.indices(f.shape)
+    # a binned pixel (i, j) covers [i, i + 1) * scale: its centre at (i + 0.5) * scale
+    return np.array([((xs + 0.5) * w).sum(), ((ys + 0.5) * w).sum()]) / w.sum() * scale
+
+
+@pytest.mark.parametrize("stage", [1, 2])
+def test_camera_frames_show_the_lights_where_they_are_read(stage):
+    """Fails if the frames are not in the observation space, a frame does not show its
+    light within 1.5 px of where the camera processor reads it (one light per frame, in
+    the rows' order), a light not in view shows in its frame, the frames change with the
+    seed but not on a restored state, or rgb_array does not show them."""
+    env = gym.make(trn_softarm.ENV_ID, stage=stage, frames=True, frame_scale=4, render_mode="rgb_array")
+    check_env(env.unwrapped)
+    space = env.observation_space["frames"]
+    assert space.shape == (2, 2 if stage == 1 else 1, 192, 256)
+    seen = 0
+    for seed in range(6):
+        obs, info = env.reset(seed=seed)
+        assert space.contains(obs["frames"])
+        for light in range(space.shape[1]):
+            for cam in range(2):
+                row = 2 * light + cam
+                c = _centroid(obs["frames"][cam, light], 4)
+                if not info["lights_true_in_view"][row]:
+                    continue
+                assert c is not None, (seed, row)
+                if obs["status"][row] == 0:
+                    assert np.hypot(*(c - obs["lights"][row])) < 1.5, (seed, row, c, obs["lights"][row])
+                    seen += 1
+    assert seen >= 6 * space.shape[1]
+    first = env.reset(seed=1)[0]["frames"]
+    again = env.reset(seed=1)[0]["frames"]
+    other = env.reset(seed=2)[0]["frames"]
+    assert np.array_equal(first, again) and not np.array_equal(first, other)
+    env.unwrapped.step(env.action_space.sample())
+    restored = pickle.loads(pickle.dumps(env.unwrapped))
+    assert np.array_equal(restored.camera_frames(), env.unwrapped.camera_frames())
+    picture = env.render()
+    assert picture.shape == (192, 512, 3) and picture.dtype == np.uint8
+    with pytest.raises(ValueError, match="frames"):
+        gym.make_vec(trn_softarm.ENV_ID, num_envs=2, frames=True)
+    with pytest.raises(ValueError, match="frame_scale"):
+        SoftArmEnv(frames=True, frame_scale=0)

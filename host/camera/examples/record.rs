@@ -18,9 +18,9 @@ use trn_camera::source::{
     lights_of, CalibrationConfig, Manifest, RecordedCapture, TruthPoint, FORMAT, MANIFEST,
 };
 use trn_plant::pixels::PixelVision;
-use trn_plant::{kinematics, Plant, SimConfig, Vector3};
+use trn_plant::{kinematics, Plant, SimConfig};
 use trn_protocol::{CaptureKind, PointStatus};
-use trn_vision::{CaptureProtocol, Emitter, Renderer, Sensor};
+use trn_vision::{CaptureProtocol, Emitter};
 
 fn main() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
@@ -88,7 +88,12 @@ fn main() -> Result<(), String> {
         let protocol = CaptureProtocol::sequential(lights_of(what)).map_err(|e| e.to_string())?;
         let mut names: [Vec<String>; 2] = [vec![], vec![]];
         for (cam, names) in names.iter_mut().enumerate() {
-            let frames = render(&plant, cam, &lights, &protocol, &vision, seed, i)?;
+            let frame_seed = seed
+                .wrapping_mul(1_000_003)
+                .wrapping_add((i * 64 + cam * 8) as u64);
+            let frames = plant
+                .capture_frames(cam, &lights, &protocol, &vision, frame_seed)
+                .map_err(|e| e.to_string())?;
             for (f, frame) in frames.iter().enumerate() {
                 let name = format!("{i:04}-cam{cam}-f{f}.png");
                 save_png(frame, &out.join(&name)).map_err(|e| format!("{name}: {e}"))?;
@@ -150,45 +155,6 @@ fn truth_of(e: Option<&Emitter>, occluders: &[trn_vision::Occluder]) -> TruthPoi
             PointStatus::Valid
         },
     }
-}
-
-/// The frames of one capture of `lights` (mm) in camera `cam`, whole.
-fn render(
-    plant: &Plant,
-    cam: usize,
-    lights: &[Vector3<f64>],
-    protocol: &CaptureProtocol,
-    v: &PixelVision,
-    seed: u64,
-    capture: usize,
-) -> Result<Vec<trn_vision::Frame<u8>>, String> {
-    let [w, h] = plant.config().cameras[cam].resolution;
-    let sensor = Sensor {
-        width: w,
-        height: h,
-        ..v.sensor.clone()
-    };
-    let renderer = Renderer::<u8>::new(&sensor).map_err(|e| e.to_string())?;
-    let (emitters, occluders) = plant.pixel_scene(cam, lights, v);
-    // a light out of view: an emitter with no light, off the image
-    let dark = Emitter::new([-1e4, -1e4], 1.0, 0.0);
-    let spots: Vec<Emitter> = emitters
-        .iter()
-        .map(|e| e.clone().unwrap_or_else(|| dark.clone()))
-        .collect();
-    let scenes = protocol
-        .scenes(&spots, &occluders)
-        .map_err(|e| e.to_string())?;
-    scenes
-        .iter()
-        .enumerate()
-        .map(|(f, s)| {
-            let frame_seed = seed
-                .wrapping_mul(1_000_003)
-                .wrapping_add((capture * 64 + cam * 8 + f) as u64);
-            renderer.render(s, frame_seed).map_err(|e| e.to_string())
-        })
-        .collect()
 }
 
 /// `frame` as a PNG file, compressed hard: no filter (the background is noise, which a

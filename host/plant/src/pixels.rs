@@ -213,24 +213,10 @@ impl Plant {
         seed: u64,
     ) -> Result<Vec<PixelReading>, VisionError> {
         let [w, h] = self.cameras[cam].size;
-        let sensor = Sensor {
-            width: w,
-            height: h,
-            ..v.sensor.clone()
-        };
-        let renderer = renderer(&sensor)?;
+        let renderer = self.camera_renderer(cam, v)?;
         let identifier = Identifier::new(protocol.clone(), v.gate_px)?;
         let (emitters, occluders) = self.pixel_scene_moving(cam, lights, &extras.motion_mm, v);
-        // a light out of view: an emitter with no light, off the image
-        let dark = Emitter::new([-1e4, -1e4], 1.0, 0.0);
-        let spots: Vec<Emitter> = emitters
-            .iter()
-            .enumerate()
-            .map(|(i, e)| match e {
-                Some(e) if !extras.dark.contains(&i) => e.clone(),
-                _ => dark.clone(),
-            })
-            .collect();
+        let spots = spots(&emitters, &extras.dark);
         let mut scenes = protocol.scenes(&spots, &occluders)?;
         let mut reflections = vec![];
         for &(light, at) in &extras.reflections {
@@ -332,6 +318,59 @@ impl Plant {
             })
             .collect())
     }
+}
+
+impl Plant {
+    /// The whole frames camera `cam` takes of `lights` (mm) in a capture of `protocol` (as
+    /// many lights), the arm as it is and the lights still: every pixel rendered (not only
+    /// the lights' windows, as a reading renders them), frame `f` with the noise of
+    /// `seed`'s `f`-th draw. What a camera's own capture tool would store, and what a
+    /// learner on pixels is shown; a light outside the image lights no pixel.
+    pub fn capture_frames(
+        &self,
+        cam: usize,
+        lights: &[Vector3<f64>],
+        protocol: &CaptureProtocol,
+        v: &PixelVision,
+        seed: u64,
+    ) -> Result<Vec<trn_vision::Frame<u8>>, VisionError> {
+        let renderer = self.camera_renderer(cam, v)?;
+        let (emitters, occluders) = self.pixel_scene(cam, lights, v);
+        protocol
+            .scenes(&spots(&emitters, &[]), &occluders)?
+            .iter()
+            .enumerate()
+            .map(|(f, scene)| {
+                renderer.render(scene, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ f as u64)
+            })
+            .collect()
+    }
+}
+
+impl Plant {
+    /// A renderer for camera `cam`'s frames (`v`'s sensor at the camera's resolution).
+    fn camera_renderer(&self, cam: usize, v: &PixelVision) -> Result<Renderer<u8>, VisionError> {
+        let [w, h] = self.cameras[cam].size;
+        renderer(&Sensor {
+            width: w,
+            height: h,
+            ..v.sensor.clone()
+        })
+    }
+}
+
+/// The spots of a capture's lights: each light's emitter, and for a light out of view
+/// (`None`) or one of `dark` an emitter with no light, off the image.
+fn spots(emitters: &[Option<Emitter>], dark: &[usize]) -> Vec<Emitter> {
+    let none = Emitter::new([-1e4, -1e4], 1.0, 0.0);
+    emitters
+        .iter()
+        .enumerate()
+        .map(|(i, e)| match e {
+            Some(e) if !dark.contains(&i) => e.clone(),
+            _ => none.clone(),
+        })
+        .collect()
 }
 
 thread_local! {

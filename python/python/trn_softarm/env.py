@@ -125,6 +125,14 @@ class SoftArmEnv(gym.Env):
       the episode's seed (``info["plant_seed"]``).
 
     ``render_scale``: each camera image is drawn at 1/scale of its resolution.
+
+    ``frames``: the observation gains ``frames``, the camera frames of the arm's lights as
+    the camera processor takes them: uint8, shape (2 cameras, F, H, W), one light lit per
+    frame (stage 1: F = 2, p then q; stage 2: F = 1, the centre light), rendered from the
+    geometry (the LEDs' spots, the links hiding them, the sensor's noise: the plant's
+    ``[pixels]`` section) and binned by ``frame_scale`` (each block of frame_scale x
+    frame_scale pixels averaged). ``render()`` in ``rgb_array`` mode then shows those
+    frames (each camera's frames overlaid, the cameras side by side) instead of the drawing.
     """
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 2}
@@ -140,6 +148,8 @@ class SoftArmEnv(gym.Env):
         dt_s=None,
         persistent=False,
         randomise=0.0,
+        frames=False,
+        frame_scale=4,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -156,10 +166,29 @@ class SoftArmEnv(gym.Env):
         self._layout = _Layout(stage, self._arm.image_size, self._arm.joints, tolerance_px, max_moves)
         self.observation_space = self._layout.observation_space
         self.action_space = self._layout.action_space
+        self.frames = bool(frames)
+        self.frame_scale = int(frame_scale)
+        if self.frames:
+            if not 1 <= self.frame_scale <= 16:
+                raise ValueError(f"frame_scale is 1 to 16, got {frame_scale!r}")
+            w, h = self._arm.image_size
+            shape = (2, 2 if stage == 1 else 1, h // self.frame_scale, w // self.frame_scale)
+            self.observation_space = spaces.Dict(
+                {**self.observation_space.spaces, "frames": spaces.Box(0, 255, shape, dtype=np.uint8)}
+            )
         self._live = None
 
     def _obs(self):
-        return self._layout.obs(*self._arm.observation())
+        obs = self._layout.obs(*self._arm.observation())
+        if self.frames:
+            obs["frames"] = self.camera_frames()
+        return obs
+
+    def camera_frames(self):
+        """The cameras' frames of the arm's lights now (see ``frames``), whatever the
+        options: uint8, (2, F, H, W)."""
+        w, h, n, data = self._arm.frames(self.frame_scale)
+        return np.frombuffer(data, dtype=np.uint8).reshape(2, n, h, w).copy()
 
     def _info(self):
         return _Layout.info(self._arm.info())
@@ -185,9 +214,14 @@ class SoftArmEnv(gym.Env):
 
     def render(self):
         """``rgb_array``: both camera images side by side (H x W x 3, uint8): the arm's
-        links, the lights as read (red), the target (green rings). ``human``: the live view
+        links, the lights as read (red), the target (green rings); with ``frames``, the
+        camera frames instead (gray). ``human``: the live view
         (rerun) is updated by every reset and step; nothing is returned."""
         if self.render_mode == "rgb_array":
+            if self.frames:
+                # each camera's frames overlaid (every light shows), the cameras side by side
+                both = self.camera_frames().max(axis=1)
+                return np.repeat(np.concatenate(list(both), axis=1)[:, :, None], 3, axis=2)
             return self.camera_images()
         return None
 
@@ -226,7 +260,7 @@ class SoftArmVectorEnv(VectorEnv):
     seeds (``reset(seed=s)`` seeds arm ``i`` with ``s + i``); an arm whose episode ended is
     reset by the next ``step`` (``AutoresetMode.NEXT_STEP``: its reward is 0, its
     observation and info those of the reset). Takes the arguments of :class:`SoftArmEnv`
-    except the rendering ones.
+    except the rendering ones and ``frames``.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
@@ -242,9 +276,15 @@ class SoftArmVectorEnv(VectorEnv):
         persistent=False,
         randomise=0.0,
         render_mode=None,
+        frames=False,
     ):
         if render_mode is not None:
             raise ValueError("the native vector environment does not render; use SoftArmEnv")
+        if frames:
+            raise ValueError(
+                "the native vector environment observes the lights only; for frames use SoftArmEnv"
+                " (vectorised with gymnasium's SyncVectorEnv or AsyncVectorEnv)"
+            )
         self._arms = ArmVec(int(num_envs), config, stage, dt_s, bool(persistent), float(randomise))
         self.num_envs = int(num_envs)
         one = Arm(config, stage, dt_s)
