@@ -19,6 +19,39 @@ const SOURCES: [&str; 9] = [
     "Cargo.lock",
 ];
 
+/// The dependencies a report names with their locked versions.
+const DEPENDENCIES: [&str; 10] = [
+    "nalgebra",
+    "libm",
+    "heapless",
+    "postcard",
+    "serde",
+    "rand_xoshiro",
+    "socketcan",
+    "image",
+    "rayon",
+    "embedded-can",
+];
+
+/// `name version` of each of `names` in a Cargo.lock's text (every version locked, in the
+/// file's order), the names it does not lock left out.
+fn locked_versions(lock: &str, names: &[&str]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut name: Option<&str> = None;
+    for line in lock.lines() {
+        if line == "[[package]]" {
+            name = None;
+        } else if let Some(n) = line.strip_prefix("name = ") {
+            name = Some(n.trim_matches('"'));
+        } else if let (Some(n), Some(v)) = (name, line.strip_prefix("version = ")) {
+            if names.contains(&n) {
+                out.push(format!("{n} {}", v.trim_matches('"')));
+            }
+        }
+    }
+    out
+}
+
 fn git(root: &Path, args: &[&str]) -> Option<String> {
     let out = Command::new("git")
         .arg("-C")
@@ -70,6 +103,25 @@ fn main() {
         git(&root, &args).map(|s| (!s.is_empty()).to_string())
     });
     println!("cargo:rustc-env=TRN_GIT_COMMIT={commit}");
+    // the compiler that builds this crate, and the main dependencies as Cargo.lock has them
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
+    let version = Command::new(rustc)
+        .arg("-V")
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or_else(
+            || "unknown".into(),
+            |o| String::from_utf8_lossy(&o.stdout).trim().to_string(),
+        );
+    println!("cargo:rustc-env=TRN_RUSTC_VERSION={version}");
+    let lock = root.join("Cargo.lock");
+    println!("cargo:rerun-if-changed={}", lock.display());
+    let locked = std::fs::read_to_string(&lock).unwrap_or_default();
+    println!(
+        "cargo:rustc-env=TRN_DEPENDENCIES={}",
+        locked_versions(&locked, &DEPENDENCIES).join(", ")
+    );
     println!(
         "cargo:rustc-env=TRN_GIT_DIRTY={}",
         dirty.unwrap_or_else(|| "unknown".into())

@@ -37,8 +37,8 @@ fn num(x: f64) -> String {
     }
 }
 
-/// A field quoted when it holds a comma or a quote (RFC 4180).
-fn text(s: &str) -> String {
+/// A CSV field: quoted when it holds a comma, a quote or a line break (RFC 4180).
+pub fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
@@ -105,7 +105,7 @@ pub fn row(r: &TrialRecord) -> String {
         grasp[1],
         grasp[2],
         num(r.sim_time_s()),
-        text(&failure(r).map(|f| f.reason()).unwrap_or_default())
+        csv_field(&failure(r).map(|f| f.reason()).unwrap_or_default())
     );
     out
 }
@@ -189,7 +189,7 @@ mod tests {
         assert!(r.starts_with("7,snapshot,25,stage2,false,6,0,"), "{r}");
         assert!(r.ends_with("target not visible from the twin arm"), "{r}");
         assert_eq!(r.split(',').count(), columns, "{r}");
-        assert_eq!(text("a, \"b\""), "\"a, \"\"b\"\"\"");
+        assert_eq!(csv_field("a, \"b\""), "\"a, \"\"b\"\"\"");
     }
 
     /// Everything the runner tells the CSV's observer reaches the caller's: a notice (what

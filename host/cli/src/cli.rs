@@ -182,6 +182,12 @@ pub struct DecodeArgs {
     /// Print only the counts.
     #[arg(long)]
     pub summary: bool,
+    /// How to print the frames: `text` (each line of the log, then what it carries), `json`
+    /// (JSON Lines: an object a frame, the message's fields included) or `csv` (a row a
+    /// frame, the message's fields as JSON in the last column); with `json` and `csv` the
+    /// counts go to standard error.
+    #[arg(long, value_enum, default_value_t)]
+    pub format: crate::decode::Format,
 }
 
 /// `trn model`.

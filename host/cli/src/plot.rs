@@ -236,8 +236,11 @@ fn snapshots<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let (area, side) = with_legend(area);
     let curve = &report.learning_curve;
+    if curve.is_empty() {
+        return no_snapshots(area, caption);
+    }
+    let (area, side) = with_legend(area);
     let xmax = curve.last().map(|p| p.trial).unwrap_or(1).max(1) as f32;
     let ymax = curve
         .iter()
@@ -256,6 +259,7 @@ where
         .configure_mesh()
         .x_desc("training trials per network")
         .y_desc("noise-free error (pixels)")
+        .x_labels(count_labels(xmax))
         .x_label_formatter(&integer)
         .y_label_formatter(&plain)
         .label_style(("sans-serif", 14))
@@ -282,6 +286,33 @@ where
     side_legend(&side, &entries)
 }
 
+/// A panel of snapshots for a run that took none (`--snapshot-every 0`): its caption and
+/// a line that says so, instead of empty axes.
+fn no_snapshots<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, caption: &str) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let (w, h) = area.dim_in_pixel();
+    area.draw_text(caption, &("sans-serif", 18).into_text_style(area), (10, 10))?;
+    area.draw_text(
+        "no snapshots: the run took none (--snapshot-every 0)",
+        &("sans-serif", 16)
+            .into_text_style(area)
+            .color(&BLACK.mix(0.6)),
+        (w as i32 / 6, h as i32 / 2),
+    )?;
+    Ok(())
+}
+
+/// Trials a training panel's mean runs over.
+const SMOOTHING: usize = 21;
+
+/// How many tick labels an axis of counts from 0 to `max` gets: at most one per whole
+/// number (so no two ticks read the same), at most 10.
+fn count_labels(max: f32) -> usize {
+    (max.max(1.0).floor() as usize + 1).min(10)
+}
+
 fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, caption: &str, y: &[f32]) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -299,6 +330,7 @@ where
         .configure_mesh()
         .x_desc("training trial")
         .y_desc("error (pixels)")
+        .x_labels(count_labels(n as f32))
         .x_label_formatter(&integer)
         .y_label_formatter(&plain)
         .label_style(("sans-serif", 14))
@@ -309,7 +341,7 @@ where
             .enumerate()
             .map(|(i, &e)| Circle::new((i as f32, e.max(0.1)), 2, dots.mix(0.35).filled())),
     )?;
-    let s = smooth(y, 21);
+    let s = smooth(y, SMOOTHING);
     chart.draw_series(LineSeries::new(
         s.iter().enumerate().map(|(i, &e)| (i as f32, e.max(0.1))),
         PALETTE[0].stroke_width(2),
@@ -322,7 +354,11 @@ where
         &side,
         &[
             ("each trial".into(), dots, Mark::Dot),
-            ("mean over 21 trials".into(), PALETTE[0], Mark::Line),
+            (
+                format!("mean over {} trials", SMOOTHING.min(y.len().max(1))),
+                PALETTE[0],
+                Mark::Line,
+            ),
             ("3 px".into(), RGBColor(128, 128, 128), Mark::Line),
         ],
     )
@@ -431,6 +467,10 @@ mod tests {
         );
         assert_eq!(wrap("short", 20), vec!["short"]);
         assert_eq!(integer(&50.0), "50");
+        // 5 trials: the ticks 0 to 5, not 0 0 1 1 2 ...; many trials: 10
+        assert_eq!(count_labels(5.0), 6);
+        assert_eq!(count_labels(0.0), 2);
+        assert_eq!(count_labels(300.0), 10);
         assert_eq!(plain(&100.0), "100");
     }
 }

@@ -357,3 +357,51 @@ fn a_second_writer_of_the_same_output_is_refused() {
     let runs = std::fs::read_dir(study.join("runs")).unwrap().count();
     assert_eq!(runs, 0, "a run file was written");
 }
+
+/// Fails if a run without snapshots draws empty snapshot axes (ticks "0 0 0 ... 1 1")
+/// instead of saying it took none, if a training panel's tick labels repeat a number, or if
+/// the mean's legend names more trials than the run has.
+#[test]
+fn a_plot_without_snapshots_says_so() {
+    let svg = tmp("no-snapshots.svg");
+    let out = trn(&[
+        "train",
+        "--trials",
+        "5",
+        "--eval-targets",
+        "2",
+        "--grasps",
+        "1",
+        "--quiet",
+        "--snapshot-every",
+        "0",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert_eq!(
+        text.matches("no snapshots: the run took none").count(),
+        2,
+        "both stages"
+    );
+    assert!(text.contains("mean over 5 trials") && !text.contains("mean over 21"));
+    // the labels of the drawing, in order: each training panel's x axis reads 0 1 2 3 4 5
+    let labels: Vec<&str> = text
+        .split("</text>")
+        .filter_map(|t| t.rsplit('>').next())
+        .map(str::trim)
+        .collect();
+    let axis = ["0", "1", "2", "3", "4", "5"];
+    let runs = labels.windows(axis.len()).filter(|w| *w == axis).count();
+    assert_eq!(runs, 2, "{labels:?}");
+    assert!(
+        !labels.windows(2).any(|w| w == ["0", "0"]),
+        "a repeated tick: {labels:?}"
+    );
+    let _ = std::fs::remove_file(&svg);
+}

@@ -110,6 +110,23 @@ fn a_training_log_decodes_whole_and_the_report_says_what_produced_it() {
         .map(|a| a.as_str().unwrap())
         .collect();
     assert_eq!(&cmd[1..args.len() + 1], &args[..], "{cmd:?}");
+    // the compiler, the locked dependencies, the machine and the time
+    assert!(
+        p["rustc"].as_str().is_some_and(|r| r.starts_with("rustc ")),
+        "{p}"
+    );
+    assert!(
+        p["dependencies"].as_array().is_some_and(|d| d
+            .iter()
+            .any(|v| v.as_str().is_some_and(|v| v.starts_with("nalgebra ")))),
+        "{p}"
+    );
+    assert!(p["host"].as_str().is_some_and(|h| !h.is_empty()), "{p}");
+    let when = p["created_utc"].as_str().unwrap_or_default();
+    assert!(
+        when.len() == 20 && when.ends_with('Z') && when.as_bytes()[10] == b'T',
+        "{p}"
+    );
     assert!(json["spec"]["plant"]["joints"].is_array());
     assert_eq!(json["preset"], "project");
 }

@@ -62,7 +62,7 @@ impl PixelPoint {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct CaptureRequest {
     /// Sequence number echoed in the [`Observation`].
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub seq: u16,
     /// What to capture.
     pub what: CaptureKind,
@@ -75,7 +75,7 @@ pub struct CaptureRequest {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
 pub struct Observation {
     /// Sequence number of the request.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub seq: u16,
     /// What was captured.
     pub what: CaptureKind,

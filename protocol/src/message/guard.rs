@@ -32,10 +32,10 @@ pub struct GuardNonce {
     /// The operation it is for.
     pub op: GuardOp,
     /// The nonce.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub nonce: u32,
     /// How long it stays valid, ms of the controller's clock.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub window_ms: u16,
 }
 
@@ -47,6 +47,6 @@ pub struct ConfirmedSessionConfig {
     /// The configuration (the layout of `SessionConfig`).
     pub config: SessionConfig,
     /// The nonce of the controller's `GuardNonce{Reseed}`.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub nonce: u32,
 }

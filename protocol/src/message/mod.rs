@@ -2,7 +2,8 @@
 //!
 //! Wire layout: the CAN id carries the kind, the frame payload is the postcard encoding of
 //! the payload struct alone (no enum tag). Every integer wider than a byte is encoded as
-//! fixed-width little endian (`postcard::fixint::le`), so every layout has a fixed length
+//! fixed-width little endian (`postcard::fixint::le`, through the `fixint` module so that a format
+//! for people shows a number), so every layout has a fixed length
 //! ([`MessageKind::wire_len`]) and single-frame layouts are described by `trn.dbc`.
 
 use postcard::experimental::max_size::MaxSize;
@@ -19,6 +20,7 @@ pub const MESSAGE_BUDGET: usize = 62;
 pub const LONG_PAYLOAD_MAX: usize = crate::frame::FD_MAX - 4;
 
 mod camera;
+mod fixint;
 mod guard;
 mod servo;
 mod session;

@@ -43,10 +43,10 @@ pub enum SafeStateAction {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct PressureCommand {
     /// Sequence number (wraps).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub seq: u16,
     /// 12-bit command 0..=4095: `raw = round((p + 1) / 2 * 4095)`.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub raw: u16,
 }
 
@@ -54,14 +54,14 @@ pub struct PressureCommand {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct ServoStatus {
     /// Sequence number of the last command applied.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub seq: u16,
     /// Measured pressure difference, 12-bit 0..=4095 (same scale as the command).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub raw: u16,
     /// The command now applied, 12-bit: the echo of the command of `seq` (or the held
     /// pressure in the safe state), so that the controller can verify what reached the drive.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub applied: u16,
     /// The command was clipped to the drive's range.
     pub saturated: bool,
@@ -77,7 +77,7 @@ pub struct SafeStateEntered {
     /// What the node did.
     pub action: SafeStateAction,
     /// Servo drives: the raw pressure now held (2048 when vented); others: 0.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub held_raw: u16,
 }
 

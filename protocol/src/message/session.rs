@@ -64,10 +64,10 @@ pub struct ModeChange {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct ErrorReport {
     /// Error code.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub code: u16,
     /// Code-specific detail.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub detail: u32,
 }
 
@@ -93,7 +93,7 @@ pub const IMAGE_SIDE_MAX: u16 = 8192;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct SessionConfig {
     /// Seed of the initial tables.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub seed: u64,
     /// Controller preset: 0 project, 1 paper, 2 lifelong (`trn_controller::presets::Preset`).
     pub preset: u8,
@@ -101,10 +101,10 @@ pub struct SessionConfig {
     /// correction within a trial.
     pub ablation: u8,
     /// Camera image width, pixels (the span of the initial stage-1/2 weights).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_width: u16,
     /// Camera image height, pixels.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_height: u16,
     /// Long messages as CAN FD frames (true) or segmented CAN 2.0 frames (false) from now on.
     pub fd: bool,

@@ -31,7 +31,7 @@ pub struct StoreCommand {
     /// What to do.
     pub op: StoreOp,
     /// For `Erase`, the nonce of a `GuardNonce{StoreErase}`; ignored otherwise (send 0).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub nonce: u32,
 }
 
@@ -60,19 +60,19 @@ pub struct TablesStatus {
     pub event: TablesEvent,
     /// Length of the tables' checkpoint image in bytes (what a reader reads); 0 for a
     /// controller without tables.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_len: u32,
     /// Configuration fingerprint the tables were learned (or seeded) under.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub fingerprint: u32,
     /// Stage-1 learning steps of the tables (0: never trained).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub steps1: u32,
     /// Stage-2 learning steps.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub steps2: u32,
     /// Sequence number of the newest stored copy; 0 when none is stored (or no store).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub stored_sequence: u32,
 }
 
@@ -104,7 +104,7 @@ impl ChunkData {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableReadRequest {
     /// The chunk: image bytes `48 * index ..`.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub index: u16,
 }
 
@@ -113,7 +113,7 @@ pub struct TableReadRequest {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableReadChunk {
     /// The chunk.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub index: u16,
     /// Its bytes.
     pub data: ChunkData,
@@ -124,16 +124,16 @@ pub struct TableReadChunk {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableWriteBegin {
     /// The nonce of a `GuardNonce{TableWrite}` (any value when the tables never learned).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub nonce: u32,
     /// The image's length in bytes.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_len: u32,
     /// The image's CRC-32 (its last four bytes).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_crc: u32,
     /// The configuration fingerprint in its header.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub fingerprint: u32,
 }
 
@@ -142,7 +142,7 @@ pub struct TableWriteBegin {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableWriteChunk {
     /// The chunk.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub index: u16,
     /// Its bytes.
     pub data: ChunkData,
@@ -154,10 +154,10 @@ pub struct TableWriteChunk {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableWriteAck {
     /// The next chunk expected (the chunk count once all came).
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub next: u16,
     /// The transfer's image CRC.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_crc: u32,
 }
 
@@ -166,6 +166,6 @@ pub struct TableWriteAck {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct TableWriteEnd {
     /// The transfer's image CRC.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub image_crc: u32,
 }

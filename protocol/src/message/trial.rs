@@ -15,7 +15,7 @@ pub const FINE_MOVES_MAX: u8 = 31;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
 pub struct Stage1Target {
     /// Trial number.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub trial: u32,
     /// Learning enabled for this trial.
     pub learn: bool,
@@ -33,7 +33,7 @@ pub struct Stage1Target {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
 pub struct Stage2Target {
     /// Trial number.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub trial: u32,
     /// Learning enabled for this trial.
     pub learn: bool,
@@ -51,7 +51,7 @@ pub struct Stage2Target {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
 pub struct SupervisedPressure {
     /// Trial number.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub trial: u32,
     /// Normalised pressure difference per joint, each in [-1, 1].
     pub p: [f32; 5],
@@ -62,7 +62,7 @@ pub struct SupervisedPressure {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 pub struct GraspRequest {
     /// Trial number.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub trial: u32,
 }
 
@@ -70,7 +70,7 @@ pub struct GraspRequest {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
 pub struct TrialReport {
     /// Trial number.
-    #[serde(with = "postcard::fixint::le")]
+    #[serde(with = "super::fixint")]
     pub trial: u32,
     /// Last stage reached: 0 = supervised priming, 1 = stage 1, 2 = stage 2.
     pub stage: u8,

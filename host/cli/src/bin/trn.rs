@@ -115,9 +115,14 @@ fn main() -> ExitCode {
             .map_err(CliError::from)
             .and_then(|s| run_one(s, &a.common, &interrupts, false)),
         Cmd::Model(a) => model(a),
-        Cmd::Decode(a) => {
-            trn_sim::decode::decode(&a.log, a.summary, &mut std::io::stdout().lock()).map(drop)
-        }
+        Cmd::Decode(a) => trn_sim::decode::decode_as(
+            &a.log,
+            a.summary,
+            a.format,
+            &mut std::io::stdout().lock(),
+            &mut std::io::stderr().lock(),
+        )
+        .map(drop),
         Cmd::Compare(a) => a
             .spec()
             .study_unless(&stop)
