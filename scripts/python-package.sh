@@ -10,7 +10,7 @@
 # reader; then pytest python/tests (check_env on the registered id, the native vector env,
 # a pickle round trip, termination, the options, the arm's URDF and MJCF read by MuJoCo's
 # loaders against the plant's kinematics; MuJoCo is installed for it, about 90 MB with its
-# OpenGL bindings).
+# OpenGL bindings; the protocol's listener on python-can's virtual bus).
 # Prints each part's time; the venvs (about 0.5 GB with rerun-sdk) are removed at the end.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -31,7 +31,7 @@ bare=(env "PATH=$venv/bin")
 "${bare[@]}" python -c 'import shutil, sys; sys.exit(shutil.which("cargo") or shutil.which("rustc"))'
 pip=("${bare[@]}" pip install --quiet --disable-pip-version-check)
 "${pip[@]}" "$wheel" gymnasium
-"${pip[@]}" "$wheel[live]" pytest 'mujoco>=3.2,<5'
+"${pip[@]}" "$wheel[live]" pytest 'mujoco>=3.2,<5' 'python-can>=4,<5'
 t_install=$((SECONDS - t0 - t_wheel))
 trials=15
 cargo build --quiet --release --bin trn

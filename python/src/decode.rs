@@ -90,3 +90,35 @@ pub fn decode_candump(text: &str) -> String {
     }
     result(entries, dec, bad)
 }
+
+/// A decoder fed one frame at a time, as frames arrive on a bus (python-can's listeners):
+/// it keeps the segments of a message between calls.
+#[pyclass(module = "trn_softarm._native")]
+pub struct StreamDecoder {
+    dec: LogDecoder,
+}
+
+#[pymethods]
+impl StreamDecoder {
+    #[new]
+    fn new() -> StreamDecoder {
+        StreamDecoder {
+            dec: LogDecoder::new(),
+        }
+    }
+
+    /// The next frame received (`id`, `data`, `fd`, `timestamp_us`): its entry, JSON, as
+    /// `decode_frames` gives each.
+    fn push(&mut self, id: u16, data: Vec<u8>, fd: bool, timestamp_us: u64) -> PyResult<String> {
+        let frame = CanFrame::new_checked(id, &data, fd)
+            .map_err(|e| PyValueError::new_err(format!("frame {id:#05x}: {e}")))?;
+        Ok(entry(&mut self.dec, &frame, timestamp_us, None).to_string())
+    }
+
+    /// The counts so far: `(frames, messages, undecoded)` (a message still missing segments
+    /// counts its frames as undecoded).
+    fn counts(&self) -> (usize, usize, usize) {
+        let s = self.dec.clone().finish();
+        (s.frames, s.messages, s.undecoded)
+    }
+}

@@ -31,6 +31,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::Ctrl>()?;
     m.add_function(wrap_pyfunction!(decode::decode_frames, m)?)?;
     m.add_function(wrap_pyfunction!(decode::decode_candump, m)?)?;
+    m.add_class::<decode::StreamDecoder>()?;
     m.add_function(wrap_pyfunction!(arm::config_json, m)?)?;
     m.add_function(wrap_pyfunction!(model::arm_model, m)?)?;
     m.add_function(wrap_pyfunction!(model::arm_frames, m)?)?;

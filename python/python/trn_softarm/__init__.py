@@ -16,7 +16,7 @@ The simulation, the controllers and the decoder are the project's Rust crates
 
 from ._native import __version__, arm_frames, arm_model, config_json
 from .controllers import Controller, run_episode
-from .protocol import decode_candump, decode_frames
+from .protocol import Listener, decode_candump, decode_frames
 
 __all__ = [
     "__version__",
@@ -27,6 +27,7 @@ __all__ = [
     "run_episode",
     "decode_candump",
     "decode_frames",
+    "Listener",
     "config_json",
     "arm_model",
     "arm_frames",

@@ -64,3 +64,50 @@ def decode_frames(frames) -> Decoded:
         t = int(rest[1]) if len(rest) > 1 else i * 1000
         rows.append((int(can_id), bytes(data), fd, t))
     return _load(_native.decode_frames(rows))
+
+
+class Listener:
+    """A python-can listener that decodes the protocol as frames arrive: hand it to
+    ``can.Notifier(bus, [listener])`` (or call it with each ``can.Message``). A segmented
+    message is reassembled across frames, as the receivers do; each frame's entry (the dict
+    of :func:`decode_frames`) is kept in ``entries`` (the last ``keep``), each whole
+    message in ``messages`` and handed to ``on_message`` when given. python-can itself is
+    not needed to use it: any object with ``arbitration_id``, ``data``, ``is_fd`` and
+    ``timestamp`` (seconds) is a frame.
+
+    ``counts()`` gives ``(frames, messages, undecoded)`` so far."""
+
+    def __init__(self, on_message=None, keep=10_000):
+        self._dec = _native.StreamDecoder()
+        self.on_message = on_message
+        self.keep = int(keep)
+        self.entries = []
+        self.messages = []
+        self.errors = []
+
+    def on_message_received(self, msg):
+        """python-can's callback: decode one received frame."""
+        t = msg.timestamp if msg.timestamp is not None else 0.0
+        entry = json.loads(
+            self._dec.push(int(msg.arbitration_id), bytes(msg.data), bool(msg.is_fd), int(round(t * 1e6)))
+        )
+        self.entries.append(entry)
+        del self.entries[: -self.keep]
+        if entry["what"] == "message":
+            self.messages.append(entry["message"])
+            del self.messages[: -self.keep]
+            if self.on_message is not None:
+                self.on_message(entry["message"])
+
+    __call__ = on_message_received
+
+    def on_error(self, exc):
+        """python-can's callback when the bus fails: kept in ``errors``."""
+        self.errors.append(exc)
+
+    def stop(self):
+        """python-can's callback when the notifier stops (nothing to release)."""
+
+    def counts(self):
+        """``(frames, messages, undecoded)`` so far."""
+        return self._dec.counts()
