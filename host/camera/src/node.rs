@@ -130,20 +130,15 @@ impl<S: FrameSource> CameraNode<S> {
             .source
             .capture(req.what)
             .and_then(|frames| self.processor.observe(&frames));
-        let (points, served) = match read {
+        let (points, failed) = match read {
             Ok(o) => {
                 self.stats.captures += 1;
                 self.stats.inconsistent += o.inconsistent as u64;
-                let obs = Observation {
-                    seq: req.seq,
-                    what: req.what,
-                    points: o.points,
-                };
-                (o.points, Served::Capture(obs))
+                (o.points, None)
             }
             Err(e) => {
                 self.stats.failed += 1;
-                ([PixelPoint::UNUSED; 4], Served::Failed(e.to_string()))
+                ([PixelPoint::UNUSED; 4], Some(e.to_string()))
             }
         };
         let obs = Observation {
@@ -158,7 +153,10 @@ impl<S: FrameSource> CameraNode<S> {
             .count() as u64;
         self.last = Some(obs);
         out.push(Envelope::new(NodeId::CameraProcessor, obs.into()));
-        served
+        match failed {
+            None => Served::Capture(obs),
+            Some(why) => Served::Failed(why),
+        }
     }
 }
 
