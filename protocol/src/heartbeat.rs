@@ -167,6 +167,11 @@ impl HeartbeatSender {
         }
     }
 
+    /// When the next heartbeat is due (ms, the clock of `now_ms`).
+    pub const fn next_due_ms(&self) -> u32 {
+        self.next_due_ms
+    }
+
     /// A heartbeat if one is due at `now_ms` (at most one per call).
     pub fn poll(&mut self, now_ms: u32, state: NodeState) -> Option<Message> {
         // Due when now is at or past next_due (wrapping comparison).

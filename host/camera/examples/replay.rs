@@ -24,15 +24,8 @@ fn main() -> Result<(), String> {
     }
     let recording = Recording::open(&dir).map_err(|e| e.to_string())?;
     let m = recording.manifest().clone();
-    let calibration = m
-        .calibration
-        .as_ref()
-        .map(Calibration::new)
-        .transpose()
-        .map_err(|e| e.to_string())?;
-    let tolerance = calibration.as_ref().map(|k| k.tolerance_px());
-    let processor =
-        Processor::new(Default::default(), m.gate_px, calibration).map_err(|e| e.to_string())?;
+    let processor = Processor::for_recording(&m).map_err(|e| e.to_string())?;
+    let tolerance = processor.calibration().map(Calibration::tolerance_px);
     let (mut clear, mut partial) = (Vec::new(), Vec::new());
     let (mut hidden_refused, mut hidden_valid, mut clear_refused) = (0, 0, 0);
     let (mut inconsistent, mut frames, mut seconds) = (0, 0, Vec::new());

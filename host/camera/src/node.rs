@@ -58,7 +58,6 @@ pub struct CameraNode<S> {
     processor: Processor,
     last: Option<Observation>,
     heartbeat: HeartbeatSender,
-    next_heartbeat_ms: u32,
     mode: BusMode,
     stats: NodeStats,
 }
@@ -71,7 +70,6 @@ impl<S: FrameSource> CameraNode<S> {
             processor,
             last: None,
             heartbeat: HeartbeatSender::new(DEFAULT_PERIOD_MS, now_ms),
-            next_heartbeat_ms: now_ms,
             mode: BusMode::Classic,
             stats: NodeStats::default(),
         }
@@ -94,13 +92,12 @@ impl<S: FrameSource> CameraNode<S> {
 
     /// When it next has something to send unasked (ms, the clock of `now_ms`).
     pub fn poll_timeout(&self) -> u32 {
-        self.next_heartbeat_ms
+        self.heartbeat.next_due_ms()
     }
 
     /// What is due at `now_ms` (its heartbeat) into `out`.
     pub fn poll(&mut self, now_ms: u32, out: &mut Vec<Envelope>) {
         if let Some(hb) = self.heartbeat.poll(now_ms, NodeState::Operational) {
-            self.next_heartbeat_ms = now_ms.wrapping_add(DEFAULT_PERIOD_MS);
             out.push(Envelope::new(NodeId::CameraProcessor, hb));
         }
     }

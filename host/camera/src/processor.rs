@@ -98,9 +98,16 @@ impl Processor {
         })
     }
 
-    /// Whether the two cameras are checked against each other.
-    pub fn calibrated(&self) -> bool {
-        self.calibration.is_some()
+    /// The processor a recording's manifest describes: the detector's defaults, the
+    /// manifest's gate and, when it has one, its cameras' calibration.
+    pub fn for_recording(m: &crate::source::Manifest) -> Result<Processor, CameraError> {
+        let calibration = m.calibration.as_ref().map(Calibration::new).transpose()?;
+        Processor::new(DetectorParams::default(), m.gate_px, calibration)
+    }
+
+    /// The cameras' calibration, when they are checked against each other.
+    pub fn calibration(&self) -> Option<&Calibration> {
+        self.calibration.as_ref()
     }
 
     /// The points of one capture.

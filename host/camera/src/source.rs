@@ -319,14 +319,14 @@ fn check_manifest(m: &Manifest) -> Result<(), String> {
             ));
         }
         for (i, c) in k.cameras.iter().enumerate() {
-            let finite = c
+            let mut finite = c
                 .position_mm
                 .iter()
                 .chain(&c.look_at_mm)
                 .chain(&c.distortion);
             if !(c.focal_px.is_finite() && c.focal_px > 0.0)
                 || c.resolution.contains(&0)
-                || !finite.clone().all(|v| v.is_finite())
+                || !finite.all(|v| v.is_finite())
             {
                 return Err(format!(
                     "calibration camera {i}: a focal length > 0, a resolution of at least 1 x 1 and finite positions and distortion"

@@ -28,7 +28,7 @@ pub enum Format {
 }
 
 /// One frame of the log as JSON and CSV give it.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Default, Serialize)]
 struct Row {
     /// The log's line (from 1).
     line: usize,
@@ -105,8 +105,9 @@ pub fn decode_as(
     let file = trn_plant::input::open(log).map_err(io)?;
     let mut dec = LogDecoder::new();
     let mut bad_lines = 0usize;
-    // CSV's header before the first row (and alone for a log without frames)
-    let mut header = format == Format::Csv && !summary_only;
+    if format == Format::Csv && !summary_only {
+        writeln!(out, "{CSV_HEADER}").map_err(io)?;
+    }
     for (n, line) in BufReader::new(file).lines().enumerate() {
         let line = line.map_err(io)?;
         if line.trim().is_empty() {
@@ -125,21 +126,11 @@ pub fn decode_as(
                         _ => {
                             let row = Row {
                                 line: n + 1,
-                                time_s: None,
-                                iface: None,
-                                id: None,
-                                fd: None,
-                                data: None,
                                 outcome: "undecoded",
-                                node: None,
-                                kind: None,
-                                segment: None,
-                                transfer: None,
                                 error: Some(why),
-                                message: None,
+                                ..Row::default()
                             };
-                            write_row(out, format, &row, header).map_err(io)?;
-                            header = false;
+                            write_row(out, format, &row).map_err(io)?;
                         }
                     }
                 }
@@ -151,9 +142,7 @@ pub fn decode_as(
             continue;
         }
         if format != Format::Text {
-            let row = row_of(n + 1, &rec, &d.outcome);
-            write_row(out, format, &row, header).map_err(io)?;
-            header = false;
+            write_row(out, format, &row_of(n + 1, &rec, &d.outcome)).map_err(io)?;
             continue;
         }
         let what = match d.outcome {
@@ -176,9 +165,6 @@ pub fn decode_as(
     // not decoded as well
     s.frames += bad_lines;
     s.undecoded += bad_lines;
-    if header {
-        writeln!(out, "{CSV_HEADER}").map_err(io)?;
-    }
     let line = format!(
         "{} frames, {} messages, {} undecoded",
         s.frames, s.messages, s.undecoded
@@ -192,14 +178,9 @@ pub fn decode_as(
     Ok(s)
 }
 
-fn write_row(out: &mut impl Write, format: Format, row: &Row, header: bool) -> std::io::Result<()> {
+fn write_row(out: &mut impl Write, format: Format, row: &Row) -> std::io::Result<()> {
     match format {
-        Format::Csv => {
-            if header {
-                writeln!(out, "{CSV_HEADER}")?;
-            }
-            writeln!(out, "{}", row.csv())
-        }
+        Format::Csv => writeln!(out, "{}", row.csv()),
         _ => {
             serde_json::to_writer(&mut *out, row)?;
             writeln!(out)
@@ -218,12 +199,7 @@ fn row_of(line: usize, rec: &candump::Record, outcome: &Outcome) -> Row {
         fd: Some(f.is_fd()),
         data: Some(f.payload().iter().map(|b| format!("{b:02X}")).collect()),
         outcome: "undecoded",
-        node: None,
-        kind: None,
-        segment: None,
-        transfer: None,
-        error: None,
-        message: None,
+        ..Row::default()
     };
     match outcome {
         Outcome::Message(env) => {

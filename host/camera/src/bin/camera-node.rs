@@ -34,22 +34,17 @@ fn run(a: &Args) -> Result<(), String> {
         recording = recording.looping();
     }
     let m = recording.manifest();
-    let calibration = match &m.calibration {
-        Some(c) => Some(trn_camera::Calibration::new(c).map_err(|e| e.to_string())?),
-        None => None,
-    };
+    let processor = Processor::for_recording(m).map_err(|e| e.to_string())?;
     eprintln!(
         "camera-node: {} captures from {}{}",
         m.captures.len(),
         a.recording.display(),
-        if calibration.is_some() {
+        if processor.calibration().is_some() {
             ", the cameras checked against each other"
         } else {
             ", no calibration: the cameras are not checked against each other"
         }
     );
-    let processor =
-        Processor::new(Default::default(), m.gate_px, calibration).map_err(|e| e.to_string())?;
     let clock = trn_transport::WallClock::start();
     let mut node = CameraNode::new(recording, processor, 0);
     let stop = Arc::new(AtomicBool::new(false));
