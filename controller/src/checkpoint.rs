@@ -6,8 +6,16 @@
 //! |---|---|
 //! | 4 | magic `TRNC` |
 //! | varies (postcard) | [`Header`]: format version, network shapes, learning steps, preset, ablation, configuration fingerprint |
-//! | 4 x values (postcard f32) | stage-1 tables, then stage-2 tables: weights, pressures, Jacobians |
+//! | 4 x values (format 2) or 2 x values (format 3) | stage-1 tables, then stage-2 tables: weights, pressures, Jacobians |
 //! | 4 | CRC-32 (ISO-HDLC) over everything before it |
+//!
+//! The format version says how the values are encoded ([`Encoding`]): format 2 ([`VERSION`])
+//! holds each as an f32 (postcard: 4 little-endian bytes), what files and the bus carry;
+//! format 3 ([`COMPACT_VERSION`]) each as the compact build's i16 fixed point in its table's
+//! step ([`crate::entry::TABLE_SCALES`]), 2 little-endian bytes: half the size, what a part
+//! with little flash keeps (the STM32G474's store). A
+//! compact build writes format 3 without loss; an f32 build rounds to the table's step and
+//! saturates at its range. Either build reads either format.
 //!
 //! Restoring checks length, CRC, magic, version and shapes, the learning-step counters and
 //! every value (finite, within [`VALUE_LIMITS`] and what the build's tables hold) before
@@ -31,8 +39,81 @@ pub use stream::{
     check_from, read_at, restore_from, verify_from, ImageCursor, ImageSource, SourceError,
 };
 
-/// The format version this build writes and reads (2: provenance in the header).
+/// The format version of an image of f32 values (2: provenance in the header): what
+/// [`save`], files and the bus carry.
 pub const VERSION: u16 = 2;
+
+/// The format version of a compact image: format 2's layout with each value an i16 in its
+/// table's fixed-point step ([`Encoding::Compact`]).
+pub const COMPACT_VERSION: u16 = 3;
+
+/// How an image encodes the table values; its header's format version names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    /// Each value an f32, 4 bytes (format [`VERSION`]).
+    F32,
+    /// Each value the compact build's i16 in its table's step (weights 2^-5 px, pressures
+    /// 2^-13, Jacobian entries 2^-18: [`crate::entry::TABLE_SCALES`]), 2 bytes, little
+    /// endian (format [`COMPACT_VERSION`]). Written from f32 tables, a value is rounded to
+    /// the nearest step (ties to even) and saturated at the i16 range.
+    Compact,
+}
+
+impl Encoding {
+    /// The format version of an image in this encoding.
+    pub const fn version(self) -> u16 {
+        match self {
+            Encoding::F32 => VERSION,
+            Encoding::Compact => COMPACT_VERSION,
+        }
+    }
+
+    /// The encoding of an image of format `version`; `None` for a format this build does
+    /// not read.
+    pub const fn of_version(version: u16) -> Option<Encoding> {
+        match version {
+            VERSION => Some(Encoding::F32),
+            COMPACT_VERSION => Some(Encoding::Compact),
+            _ => None,
+        }
+    }
+
+    /// Bytes of one value.
+    pub const fn width(self) -> usize {
+        match self {
+            Encoding::F32 => 4,
+            Encoding::Compact => 2,
+        }
+    }
+
+    /// Upper bound of an image's size in this encoding (for buffers and flash slots).
+    pub const fn max_size(self) -> usize {
+        4 + HEADER_MAX + VALUES * self.width() + 4
+    }
+
+    /// Writes value `i` (checkpoint order) into `out[..self.width()]`.
+    fn encode(self, i: usize, x: f32, out: &mut [u8]) {
+        match self {
+            // postcard encodes an f32 as its 4 little-endian bytes
+            Encoding::F32 => out[..4].copy_from_slice(&x.to_le_bytes()),
+            Encoding::Compact => {
+                use crate::entry::Entry;
+                out[..2].copy_from_slice(&i16::put(x, scale_of(i)).to_le_bytes())
+            }
+        }
+    }
+
+    /// Value `i` (checkpoint order) from its `self.width()` bytes.
+    fn decode(self, i: usize, bytes: &[u8]) -> f32 {
+        match self {
+            Encoding::F32 => value_of(bytes),
+            Encoding::Compact => {
+                use crate::entry::Entry;
+                i16::from_le_bytes([bytes[0], bytes[1]]).get(scale_of(i))
+            }
+        }
+    }
+}
 
 /// The largest learning-step counter a checkpoint may hold: ten times more trials than any
 /// run makes, and far from `u32::MAX`, so that continuing can never wrap.
@@ -105,13 +186,46 @@ const VALUES: usize = Stage1Net::VALUES + Stage2Net::VALUES;
 /// Upper bound of a header's postcard encoding (u16 + 6 x u16 + 3 x u32 as varints + 2 u8).
 const HEADER_MAX: usize = 3 + 6 * 3 + 3 * 5 + 2;
 
-/// Upper bound of a checkpoint's size in bytes (for buffers).
-pub const MAX_SIZE: usize = 4 + HEADER_MAX + VALUES * 4 + 4;
+/// Upper bound of a checkpoint's size in bytes, in either encoding (for buffers).
+pub const MAX_SIZE: usize = Encoding::F32.max_size();
 
-/// The header a checkpoint of `ctrl` carries.
-fn header_of(ctrl: &Controller, provenance: Provenance) -> Header {
+/// Values in each table, in checkpoint order: stage 1's weights, pressures, Jacobians, then
+/// stage 2's.
+const TABLE_SIZES: [usize; 6] = [
+    1000 * 8,
+    1000 * 5,
+    1000 * 5 * 8,
+    200 * 4,
+    200 * 3,
+    200 * 3 * 4,
+];
+
+/// The table (index into [`TABLE_SIZES`]) of value `i`; 6 beyond the last.
+fn table_of(i: usize) -> usize {
+    let mut end = 0;
+    for (t, n) in TABLE_SIZES.iter().enumerate() {
+        end += n;
+        if i < end {
+            return t;
+        }
+    }
+    TABLE_SIZES.len()
+}
+
+/// The fixed-point step of value `i`'s table (a compact image's unit).
+fn scale_of(i: usize) -> crate::entry::Scale {
+    let s = crate::entry::TABLE_SCALES;
+    match table_of(i) % 3 {
+        0 => s.w,
+        1 => s.p,
+        _ => s.a,
+    }
+}
+
+/// The header a checkpoint of `ctrl` carries in `encoding`.
+fn header_of(ctrl: &Controller, provenance: Provenance, encoding: Encoding) -> Header {
     Header {
-        version: VERSION,
+        version: encoding.version(),
         shape1: SHAPE1,
         shape2: SHAPE2,
         t1: ctrl.stage1().learning_step(),
@@ -122,9 +236,21 @@ fn header_of(ctrl: &Controller, provenance: Provenance) -> Header {
 }
 
 /// Writes a checkpoint of `ctrl`, whose configuration came from `provenance`, into `buf`
-/// and returns its length. [`ImageCursor`] writes the same bytes piece by piece.
+/// and returns its length (format 2, f32 values). [`ImageCursor`] writes the same bytes
+/// piece by piece.
 pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result<usize> {
-    let header = header_of(ctrl, provenance);
+    save_as(ctrl, provenance, Encoding::F32, buf)
+}
+
+/// [`save`] in `encoding`.
+pub fn save_as(
+    ctrl: &Controller,
+    provenance: Provenance,
+    encoding: Encoding,
+    buf: &mut [u8],
+) -> Result<usize> {
+    let header = header_of(ctrl, provenance, encoding);
+    let width = encoding.width();
     if buf.len() < 4 {
         return Err(Error::BufferTooSmall { needed: MAX_SIZE });
     }
@@ -133,19 +259,60 @@ pub fn save(ctrl: &Controller, provenance: Provenance, buf: &mut [u8]) -> Result
         .map_err(|_| Error::BufferTooSmall { needed: MAX_SIZE })?
         .len();
     let mut pos = 4 + hlen;
-    let needed = pos + VALUES * 4 + 4;
+    let needed = pos + VALUES * width + 4;
     if buf.len() < needed {
         return Err(Error::BufferTooSmall { needed });
     }
+    let mut i = 0;
     let mut put = |x: f32| {
-        // postcard encodes an f32 as its 4 little-endian bytes
-        let _ = postcard::to_slice(&x, &mut buf[pos..pos + 4]);
-        pos += 4;
+        encoding.encode(i, x, &mut buf[pos..pos + width]);
+        pos += width;
+        i += 1;
     };
     ctrl.stage1().net().for_each_value(&mut put);
     ctrl.stage2().net().for_each_value(&mut put);
     let crc = CRC.checksum(&buf[..pos]);
     buf[pos..pos + 4].copy_from_slice(&crc.to_le_bytes());
+    Ok(pos + 4)
+}
+
+/// Writes `image` (a checkpoint in either encoding, checked as [`verify`] checks it) into
+/// `out` in `encoding` and returns its length: the same header (learning steps,
+/// provenance, configuration fingerprint) in the new format version, each value
+/// re-encoded (rounded to its table's step and saturated when the new encoding is
+/// [`Encoding::Compact`]), a new CRC. For a writer whose controller keeps compact images
+/// only (a part with little flash).
+pub fn transcode(image: &[u8], encoding: Encoding, out: &mut [u8]) -> Result<usize> {
+    let header = verify(image)?;
+    let from = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let (wf, wt) = (from.width(), encoding.width());
+    let values = &image[image.len() - 4 - VALUES * wf..image.len() - 4];
+    let header = Header {
+        version: encoding.version(),
+        ..header
+    };
+    if out.len() < 4 {
+        return Err(Error::BufferTooSmall {
+            needed: encoding.max_size(),
+        });
+    }
+    out[..4].copy_from_slice(&MAGIC);
+    let hlen = postcard::to_slice(&header, &mut out[4..])
+        .map_err(|_| Error::BufferTooSmall {
+            needed: encoding.max_size(),
+        })?
+        .len();
+    let mut pos = 4 + hlen;
+    let needed = pos + VALUES * wt + 4;
+    if out.len() < needed {
+        return Err(Error::BufferTooSmall { needed });
+    }
+    for (i, c) in values.chunks_exact(wf).enumerate() {
+        encoding.encode(i, from.decode(i, c), &mut out[pos..pos + wt]);
+        pos += wt;
+    }
+    let crc = CRC.checksum(&out[..pos]);
+    out[pos..pos + 4].copy_from_slice(&crc.to_le_bytes());
     Ok(pos + 4)
 }
 
@@ -167,16 +334,17 @@ pub fn verify(bytes: &[u8]) -> Result<Header> {
             expected: MAX_SIZE,
             found: bytes.len(),
         })?;
-    if header.version != VERSION {
+    let Some(encoding) = Encoding::of_version(header.version) else {
         return Err(Error::CheckpointVersion {
             found: header.version,
         });
-    }
+    };
     if header.shape1 != SHAPE1 || header.shape2 != SHAPE2 {
         return Err(Error::CheckpointShape);
     }
-    if rest.len() != VALUES * 4 {
-        let expected = bytes.len() - rest.len() + VALUES * 4;
+    let values = VALUES * encoding.width();
+    if rest.len() != values {
+        let expected = bytes.len() - rest.len() + values;
         return Err(Error::CheckpointLength {
             expected,
             found: bytes.len(),
@@ -194,14 +362,15 @@ pub fn verify(bytes: &[u8]) -> Result<Header> {
 
 /// Each table's values within [`VALUE_LIMITS`] and within what this build's tables hold
 /// (a compact build's fixed-point range, [`crate::entry::TABLE_SCALES`]), in checkpoint
-/// order (stage 1's weights, pressures, Jacobians, then stage 2's). The format is f32 in
-/// either build, so a checkpoint moves between them; a compact build rounds on restore.
-fn values_within_limits(values: &[u8]) -> bool {
+/// order (stage 1's weights, pressures, Jacobians, then stage 2's). Either build reads
+/// either encoding, so a checkpoint moves between them; a compact build rounds an f32 image
+/// on restore.
+fn values_within_limits(values: &[u8], encoding: Encoding) -> bool {
     let limits = ValueLimits::new();
     values
-        .chunks_exact(4)
+        .chunks_exact(encoding.width())
         .enumerate()
-        .all(|(i, c)| limits.holds(i, value_of(c)))
+        .all(|(i, c)| limits.holds(i, encoding.decode(i, c)))
 }
 
 /// The f32 a checkpoint stores in 4 bytes (postcard: little endian).
@@ -227,19 +396,14 @@ impl ValueLimits {
             held(p, TABLE_SCALES.p),
             held(a, TABLE_SCALES.a),
         );
-        let sizes = [
-            (1000 * 8, w),
-            (1000 * 5, p),
-            (1000 * 5 * 8, a),
-            (200 * 4, w),
-            (200 * 3, p),
-            (200 * 3 * 4, a),
-        ];
+        let bounds = [w, p, a, w, p, a];
         let mut end = 0;
+        let mut t = 0;
         ValueLimits {
-            tables: sizes.map(|(count, limit)| {
+            tables: TABLE_SIZES.map(|count| {
                 end += count;
-                (end, limit)
+                t += 1;
+                (end, bounds[t - 1])
             }),
         }
     }
@@ -259,15 +423,17 @@ pub fn restore(ctrl: &mut Controller, bytes: &[u8]) -> Result<Header> {
         return Err(Error::Busy);
     }
     let header = verify(bytes)?;
-    let values = &bytes[bytes.len() - 4 - VALUES * 4..bytes.len() - 4];
+    let encoding = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let width = encoding.width();
+    let values = &bytes[bytes.len() - 4 - VALUES * width..bytes.len() - 4];
     // every value must be finite and within its table's bounds before anything is written
-    if !values_within_limits(values) {
+    if !values_within_limits(values, encoding) {
         return Err(Error::CheckpointContents);
     }
-    let mut chunks = values.chunks_exact(4);
+    let mut chunks = values.chunks_exact(width).enumerate();
     let mut next = |x: &mut f32| {
-        if let Some(c) = chunks.next() {
-            *x = postcard::from_bytes::<f32>(c).unwrap_or(0.0);
+        if let Some((i, c)) = chunks.next() {
+            *x = encoding.decode(i, c);
         }
     };
     let (s1, s2) = ctrl.parts_mut();
@@ -407,6 +573,36 @@ mod tests {
             !h.config_matches(&Config::paper()),
             "another configuration is told apart"
         );
+    }
+
+    /// An f32 image transcoded to compact is the compact image of the same tables, and back
+    /// the f32 image of the rounded tables; a damaged image is refused.
+    #[test]
+    fn transcoding_gives_the_image_of_the_other_encoding() {
+        let a = trained();
+        let mut f = vec![0u8; MAX_SIZE];
+        let n = save(&a, Provenance::CUSTOM, &mut f).unwrap();
+        let mut direct = vec![0u8; MAX_SIZE];
+        let nd = save_as(&a, Provenance::CUSTOM, Encoding::Compact, &mut direct).unwrap();
+        let mut c = vec![0u8; MAX_SIZE];
+        let nc = transcode(&f[..n], Encoding::Compact, &mut c).unwrap();
+        assert_eq!(c[..nc], direct[..nd]);
+        let mut back = vec![0u8; MAX_SIZE];
+        let nb = transcode(&c[..nc], Encoding::F32, &mut back).unwrap();
+        let mut b = Box::new(Controller::new(Config::project_default()));
+        restore(&mut b, &c[..nc]).unwrap();
+        let mut rounded = vec![0u8; MAX_SIZE];
+        let nr = save(&b, Provenance::CUSTOM, &mut rounded).unwrap();
+        assert_eq!(back[..nb], rounded[..nr]);
+        assert_eq!(
+            verify(&back[..nb]).unwrap().config_fingerprint,
+            a.config().fingerprint()
+        );
+        f[100] ^= 1;
+        assert!(matches!(
+            transcode(&f[..n], Encoding::Compact, &mut c),
+            Err(Error::CheckpointCrc { .. })
+        ));
     }
 
     #[test]

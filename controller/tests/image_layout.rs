@@ -210,13 +210,18 @@ fn the_checks_of_verify_come_in_the_order_the_specification_gives() {
         write_image(&h2, &vals)
     };
     // a wrong version with a wrong CRC: the version is named first
-    let mut image = with(&|h| h.version = 3);
+    let mut image = with(&|h| h.version = 4);
     let n = image.len();
     image[n - 1] ^= 1;
     assert_eq!(
         checkpoint::verify(&image),
-        Err(Error::CheckpointVersion { found: 3 })
+        Err(Error::CheckpointVersion { found: 4 })
     );
+    // version 3 (compact) with f32 values: the values' length
+    assert!(matches!(
+        checkpoint::verify(&with(&|h| h.version = 3)),
+        Err(Error::CheckpointLength { .. })
+    ));
     assert_eq!(
         checkpoint::verify(&with(&|h| h.shapes[3] = 100)),
         Err(Error::CheckpointShape)
@@ -324,4 +329,50 @@ fn the_specifications_image_vector_is_what_the_code_verifies_restores_and_saves(
     checkpoint::restore(&mut c, &image).unwrap();
     assert!(values(&c) == vector);
     assert!(saved(&c, Provenance::of(Preset::Project, Ablation::None)) == image);
+}
+
+/// A compact image (format version 3) as SPEC 3.5 says: format 2's header with version 3,
+/// then each value as the i16 `round(x / step)` of its table's step (weights 2^-5,
+/// pressures 2^-13, Jacobians 2^-18; ties to even, saturated), two bytes little endian, then
+/// the CRC. Written from the text, it is the crate's `save_as(Compact)` byte for byte.
+#[test]
+fn a_compact_image_is_laid_out_as_the_specification_says() {
+    use checkpoint::Encoding;
+    let c = seeded();
+    let mut buf = vec![0u8; Encoding::Compact.max_size()];
+    let n = checkpoint::save_as(&c, Provenance::CUSTOM, Encoding::Compact, &mut buf).unwrap();
+    let image = &buf[..n];
+    let (h, values_at) = read_header(image);
+    assert_eq!(h.version, 3);
+    assert_eq!(image.len(), values_at + 113_600 + 4);
+    let steps = [
+        (8_000, 5),
+        (5_000, 13),
+        (40_000, 18),
+        (800, 5),
+        (600, 13),
+        (2_400, 18),
+    ];
+    let mut spec = image[..values_at].to_vec();
+    let mut at = 0;
+    let vals = values(&c);
+    for (count, bits) in steps {
+        for x in &vals[at..at + count] {
+            let q = (x * (1u32 << bits) as f32).round_ties_even();
+            let q = q.clamp(i16::MIN as f32, i16::MAX as f32) as i16;
+            spec.extend(q.to_le_bytes());
+        }
+        at += count;
+    }
+    assert_eq!(at, 56_800);
+    spec.extend(crc32(&spec).to_le_bytes());
+    assert!(spec == image, "the compact image differs from SPEC 3.5's");
+    // and it restores to those steps
+    let mut other = Box::new(Controller::new(Config::project_default()));
+    checkpoint::restore(&mut other, image).unwrap();
+    let w = other.stage1().net().weight(0)[0];
+    assert_eq!(
+        w,
+        (c.stage1().net().weight(0)[0] * 32.0).round_ties_even() / 32.0
+    );
 }

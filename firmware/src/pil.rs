@@ -4,8 +4,8 @@
 //! is [`ControllerNode::service`], the same seam and the same code path as the host's.
 //!
 //! The node boots as a board's does: its guard seeded (`store::entropy`), what the store of
-//! its tables holds announced (the f32 build: [`store`], in emulated flash, erased at boot;
-//! the compact build has no store). It runs across sessions, as a board does: after each session's
+//! its tables holds announced ([`store`], in emulated flash, erased at boot; compact images
+//! in the compact build). It runs across sessions, as a board does: after each session's
 //! `ModeChange{Idle}` it prints its stack's high-water mark over semihosting; the simulator
 //! ends QEMU when its run is over, and the firmware exits by itself when nothing came over
 //! the UART for a minute of its clock (a simulator that died).
@@ -63,6 +63,9 @@ static mut STATE: State = State {
     },
 };
 
+/// The store of the tables, made at boot.
+static mut STORE: Option<store::Store> = None;
+
 /// Runs the node until the simulator ends QEMU (or stops sending for [`ORPHANED_MS`]).
 pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
     // SAFETY: the only access to STATE, taken once; single-threaded firmware, no interrupts.
@@ -77,17 +80,16 @@ pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
     node.seed_guard(store::entropy());
     // the emulated flash is erased at every boot (QEMU keeps nothing between runs): there is
     // nothing to restore, and the node announces so
-    #[cfg(not(feature = "compact"))]
+    // SAFETY: the only access to STORE, taken once; single-threaded firmware, no interrupts.
+    // In static RAM (as a board's is, in its executor's task), not on the stack.
+    #[allow(unsafe_code)]
+    let stored: &'static mut Option<store::Store> = unsafe { &mut *core::ptr::addr_of_mut!(STORE) };
     let mut board = trn_controller::WithStore {
         ctrl,
-        store: store::store(),
+        store: stored.insert(store::store()),
     };
-    #[cfg(not(feature = "compact"))]
     node.tables_restored(&mut board, None);
-    #[cfg(not(feature = "compact"))]
     let ctrl: &mut dyn trn_controller::Control = &mut board;
-    #[cfg(feature = "compact")]
-    node.tables_restored(ctrl, None);
     port.inner.link_mut().enable();
     let mut idle = false;
     let mut heard_ms = clock.now_ms();

@@ -3,31 +3,33 @@
 //! QEMU's mps2-an386 has no flash a program can write, so the store's "flash" is RAM: a
 //! [`RamFlash`] over the memory memory.x reserves from `__tables_flash` (the last MiB of the
 //! data SSRAM, outside RAM, `.data` and `.bss`, so the RAM budget of the firmware is not
-//! charged for what a board keeps in flash: two slots of 229,376 B). It is erased at every
-//! boot, as a board's flash would be after a fresh programming: a PIL run starts from
-//! nothing stored. Only the f32 build has it: the compact build has no RAM to spare for the
-//! store's state (its node serves the tables without a store: reads, no writes or saves).
+//! charged for what a board keeps in flash). It is erased at every boot, as a board's flash
+//! would be after a fresh programming: a PIL run starts from nothing stored. The f32 build
+//! keeps f32 images (checkpoint format 2); the compact build keeps compact images (format 3,
+//! half the size), as the STM32G474 board does, so that its RAM and stack budgets include
+//! the store's state and its deepest calls.
 //!
 //! The guard's seed comes from the host through semihosting (`/dev/urandom` of the machine
 //! QEMU runs on), as a board takes it from its RNG; if that fails the guard stays unseeded
 //! and the node never replaces learned tables over the bus (SPEC 3.4).
 
-#[cfg(not(feature = "compact"))]
-use trn_controller::checkpoint;
-#[cfg(not(feature = "compact"))]
+use trn_controller::checkpoint::Encoding;
 use trn_store::{FlashStore, RamFlash};
 
 /// Bytes of a program unit and of a page of the emulated flash.
-#[cfg(not(feature = "compact"))]
 const WRITE: usize = 8;
-#[cfg(not(feature = "compact"))]
 const ERASE: usize = 4096;
 
-/// A slot: the header (64 bytes) and the largest checkpoint, in whole pages.
-#[cfg(not(feature = "compact"))]
-const SLOT: usize = (64 + checkpoint::MAX_SIZE).div_ceil(ERASE) * ERASE;
+/// How the store encodes the tables: as this build holds them.
+const ENCODING: Encoding = if cfg!(feature = "compact") {
+    Encoding::Compact
+} else {
+    Encoding::F32
+};
 
-#[cfg(not(feature = "compact"))]
+/// A slot: the header (64 bytes) and the largest checkpoint, in whole pages.
+const SLOT: usize = (64 + ENCODING.max_size()).div_ceil(ERASE) * ERASE;
+
 extern "C" {
     /// The memory memory.x reserves for the emulated flash: its first byte, and the byte
     /// past its end.
@@ -36,15 +38,12 @@ extern "C" {
 }
 
 /// The emulated flash of the store.
-#[cfg(not(feature = "compact"))]
 pub type Flash = RamFlash<&'static mut [u8], WRITE, ERASE>;
 
 /// The store of the tables.
-#[cfg(not(feature = "compact"))]
 pub type Store = FlashStore<Flash>;
 
 /// The store over the emulated flash, erased. Called once, at boot.
-#[cfg(not(feature = "compact"))]
 pub fn store() -> Store {
     // SAFETY: memory.x reserves the region for this buffer alone (no section is linked
     // there); the only reference to it, taken once at boot; single-threaded firmware, no
@@ -58,7 +57,7 @@ pub fn store() -> Store {
         }
         &mut *core::ptr::addr_of_mut!(__tables_flash)
     };
-    let Ok(store) = FlashStore::new(RamFlash::new(mem), 0, SLOT as u32) else {
+    let Ok(store) = FlashStore::new_as(RamFlash::new(mem), 0, SLOT as u32, ENCODING) else {
         crate::fail("the store's layout")
     };
     store

@@ -1,9 +1,11 @@
-//! Saves during back-to-back training on an STM32H743-shaped flash that takes time: the node,
-//! the drives' heartbeat supervision, the plant and a runner on one simulated clock.
+//! Saves during back-to-back training on a flash that takes time, shaped as each board's: the
+//! node, the drives' heartbeat supervision, the plant and a runner on one simulated clock.
 //!
-//! The flash is `trn_store::sim::H743Flash` (32-byte flash words, 128 KiB sectors, the
-//! store's slots two sectors each) with the part's erase and program durations
-//! (`FlashTiming::H743_X32` typical, `H743_X32_MAX` maximum). The plant answers a drive's
+//! The STM32H743's flash is `trn_store::sim::H743Flash` (32-byte flash words, 128 KiB
+//! sectors, the store's slots of f32 images two sectors each) with the part's erase and
+//! program durations (`FlashTiming::H743_X32` typical, `H743_X32_MAX` maximum); the
+//! STM32G474's is `G474Flash` (8-byte double words, 2 KiB pages, slots of compact images of
+//! 56 pages each; `FlashTiming::G474` typical, `G474_MAX` maximum). The plant answers a drive's
 //! command after 2 ms and a capture after 1.2 s (the simulated arm's settle time); the runner
 //! sends the next target 1 ms after a trial ends and repeats a start that shows no sign every
 //! 300 ms, giving it up after 12 repeats (SocketCAN's figures, protocol/SPEC.md 3.1). The
@@ -16,14 +18,18 @@
 mod common;
 
 use common::*;
+use trn_controller::checkpoint::Encoding;
 use trn_controller::WithStore;
 use trn_node::{ControllerNode, NodeConfig, Outbox};
 use trn_protocol::heartbeat::{HeartbeatConfig, HeartbeatMonitor};
 use trn_protocol::{Envelope, Message, Mode, ModeChange, NodeId, SafeState, TablesEvent};
-use trn_store::sim::{FlashTiming, H743Flash, SimClock};
+use trn_store::sim::{FlashTiming, G474Flash, SimClock, SimFlash};
 use trn_store::{FlashStore, TableStore};
 
-type H7Board = WithStore<Box<trn_controller::Controller>, FlashStore<H743Flash>>;
+/// A board: the controller and its store on a flash of `W`-byte write units and `E`-byte
+/// pages.
+type Board<const W: usize, const E: usize> =
+    WithStore<Box<trn_controller::Controller>, FlashStore<SimFlash<W, E>>>;
 
 /// Time of one turn of the node's loop when it is due at once (µs).
 const TURN_US: u64 = 50;
@@ -59,10 +65,10 @@ struct Figures {
     aborted: u32,
 }
 
-struct Rig {
+struct Rig<const W: usize, const E: usize> {
     clock: SimClock,
     n: ControllerNode,
-    b: H7Board,
+    b: Board<W, E>,
     plant: Plant,
     drives: HeartbeatMonitor,
     last_heartbeat_us: u64,
@@ -73,17 +79,17 @@ struct Rig {
     save_began_at_trial: Option<u32>,
 }
 
-impl Rig {
-    fn new(timing: FlashTiming, background: bool) -> Rig {
+impl<const W: usize, const E: usize> Rig<W, E> {
+    fn new(timing: FlashTiming, background: bool, encoding: Encoding) -> Self {
         let clock = SimClock::new();
-        let slot = FlashStore::<H743Flash>::slot_size_needed();
-        let sectors = 2 * slot as usize / 131072;
-        let flash = H743Flash::new(sectors).with_timing(clock.clone(), timing);
-        let mut store = FlashStore::new(flash, 0, slot).unwrap();
+        let slot = FlashStore::<SimFlash<W, E>>::slot_size_needed_as(encoding);
+        let sectors = 2 * slot as usize / E;
+        let flash = SimFlash::<W, E>::new(sectors).with_timing(clock.clone(), timing);
+        let mut store = FlashStore::new_as(flash, 0, slot, encoding).unwrap();
         if background {
             store = store.with_background_erase();
         }
-        let b = H7Board {
+        let b = Board {
             ctrl: learned(52, 0),
             store,
         };
@@ -241,9 +247,20 @@ impl Rig {
     }
 }
 
-/// Trains `trials` trials back to back in `Training` with a save due every 3 learning steps.
+/// Trains `trials` trials back to back in `Training` with a save due every 3 learning steps,
+/// on the H743's flash.
 fn run(timing: FlashTiming, background: bool, trials: u32) -> Figures {
-    let mut r = Rig::new(timing, background);
+    run_on::<32, 131072>(timing, background, trials, Encoding::F32)
+}
+
+/// [`run`] on a flash of `W`-byte write units and `E`-byte pages, saving in `encoding`.
+fn run_on<const W: usize, const E: usize>(
+    timing: FlashTiming,
+    background: bool,
+    trials: u32,
+    encoding: Encoding,
+) -> Figures {
+    let mut r = Rig::<W, E>::new(timing, background, encoding);
     r.send_now(session(3, false).into());
     r.send_now(
         ModeChange {
@@ -257,7 +274,7 @@ fn run(timing: FlashTiming, background: bool, trials: u32) -> Figures {
     r.f.aborted = r.n.stats().aborted;
     let f = r.f;
     println!(
-        "{timing:?}, background erase {background}: heartbeat gap max {} ms, drives' safe state \
+        "{timing:?} ({W} B writes, {E} B pages, {encoding:?}), background erase {background}: heartbeat gap max {} ms, drives' safe state \
          entered {} times, longest wait of a start {} ms (runner repeats max {}, given up {}), \
          errors {:?}, aborted {}, saves completed {} (trials from start to Saved, erases per \
          sector): {:?}",
@@ -302,6 +319,32 @@ fn saves_during_back_to_back_training_keep_the_heartbeat_and_erase_each_sector_o
             assert!(*trials <= 2, "a save took {trials} trials");
             let per_sector: Vec<u32> = erases.iter().copied().filter(|&e| e > 0).collect();
             assert_eq!(per_sector, vec![1, 1], "erases per sector {erases:?}");
+        }
+    }
+}
+
+/// The same on the G474's flash with its compact images: each save erases each of its slot's
+/// 56 pages once, no heartbeat gap above 500 ms, no trial aborted.
+#[test]
+fn saves_on_the_g474s_flash_keep_the_heartbeat_and_erase_each_page_once() {
+    let pages = FlashStore::<G474Flash>::slot_size_needed_as(Encoding::Compact) as usize / 2048;
+    assert_eq!(pages, 56);
+    for timing in [FlashTiming::G474, FlashTiming::G474_MAX] {
+        let f = run_on::<8, 2048>(timing, true, 12, Encoding::Compact);
+        assert_eq!(f.aborted, 0, "no trial aborted");
+        assert!(
+            f.max_gap_us <= 500_000,
+            "heartbeat gap {} ms",
+            f.max_gap_us / 1000
+        );
+        assert_eq!(f.safe_entries, 0);
+        assert!(f.errors.is_empty(), "{:?}", f.errors);
+        assert_eq!(f.given_up, 0);
+        assert!(f.saves.len() >= 3, "{} saves in 12 trials", f.saves.len());
+        for (trials, erases) in &f.saves {
+            assert!(*trials <= 2, "a save took {trials} trials");
+            let per_page: Vec<u32> = erases.iter().copied().filter(|&e| e > 0).collect();
+            assert_eq!(per_page, vec![1; pages], "erases per page {erases:?}");
         }
     }
 }

@@ -6,7 +6,8 @@
 # IEEE-754 single precision on both, software libm on both). The firmware takes its run
 # parameters from the bus (`SessionConfig`), so one firmware image runs every case:
 # seed 1 project preset on CAN 2.0, seed 100 paper preset on CAN 2.0, seed 101 project
-# preset on CAN FD; then the conformance suite against the firmware.
+# preset on CAN FD; then the conformance suite against the firmware; then tables written in
+# and read out through the firmware's store, in the f32 build and in the compact build.
 #   scripts/cross/pil.sh [TRIALS]      scripts/cross/pil.sh --build-only
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
@@ -86,6 +87,35 @@ PY
     echo "pil tables: $(wc -c < "$out/tables.ckpt") bytes written into the firmware's flash store and read back bit-identical (${rt_s} s); evaluated on the firmware as on the host build, bit-identical"
 }
 tables_check || { echo "pil tables: FAIL" >&2; status=1; }
+# the compact build keeps compact images (checkpoint format 3, as the STM32G474 board): the
+# same f32 checkpoint written in is refused as too large for its slots, written again
+# compact (trn says so), applied, and read back out as f32: each value the original rounded
+# to its table's step (weights 2^-5, pressures 2^-13, Jacobians 2^-18)
+compact_tables_check() {
+    local elf start=$SECONDS
+    elf=$(build_firmware pil-compact thumbv7em-none-eabihf pil,compact --no-default-features)
+    TRN_QEMU_ARM="$QEMU_ARM" TRN_FIRMWARE="$elf" ./target/release/trn eval --bus slcan:qemu --eval-targets 0 --grasps 0 \
+        --checkpoint-in "$out/tables.ckpt" --checkpoint-out "$out/tables-compact-back.ckpt" > "$out/tables-compact.txt" 2>&1 || return 1
+    grep -q "compact tables only" "$out/tables-compact.txt" || { echo "pil compact tables: FAIL: no notice of the compact write"; return 1; }
+    python3 - "$out/tables.ckpt" "$out/tables-compact-back.ckpt" <<'PY' || return 1
+import struct, sys
+a, b = open(sys.argv[1], "rb").read(), open(sys.argv[2], "rb").read()
+n = 56_800
+va = struct.unpack(f"<{n}f", a[-4 - 4 * n:-4])
+vb = struct.unpack(f"<{n}f", b[-4 - 4 * n:-4])
+tables = [(8_000, 5), (5_000, 13), (40_000, 18), (800, 5), (600, 13), (2_400, 18)]
+steps = [bits for count, bits in tables for _ in range(count)]
+def rounded(x, bits):
+    q = max(-32768, min(32767, round(x * 2**bits)))
+    return q / 2**bits
+bad = [i for i in range(n) if vb[i] != rounded(va[i], steps[i])]
+if bad or len(b) != len(a):
+    print(f"pil compact tables: FAIL: {len(bad)} values are not the originals rounded to their steps (first {bad[:3]})")
+    sys.exit(1)
+PY
+    echo "pil compact tables: the $(wc -c < "$out/tables.ckpt")-byte checkpoint written into the compact firmware's store as a compact image and read back: every value the original rounded to its step ($((SECONDS - start)) s)"
+}
+compact_tables_check || { echo "pil compact tables: FAIL" >&2; status=1; }
 grep FAIL -A 1 "$out/conformance-broyden.txt" || true
 grep FAIL -A 1 "$out/conformance.txt" || true
 exit $status

@@ -3,7 +3,9 @@
 //! restoring at boot, erasing.
 
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
-use trn_controller::checkpoint::{self, ImageCursor, ImageSource, Provenance, SourceError};
+use trn_controller::checkpoint::{
+    self, Encoding, ImageCursor, ImageSource, Provenance, SourceError,
+};
 use trn_controller::persist::{
     ApplyError, EraseError, Expected, SaveError, StageError, StoredCopy, TableStore,
 };
@@ -11,8 +13,11 @@ use trn_controller::{Controller, Error as CkptError};
 
 use crate::slot::{Decoded, SlotHeader, FORMAT, HEADER_LEN};
 
-/// Bytes programmed by one flash write (a multiple of every supported write size).
+/// Bytes programmed by one flash write of a save (a multiple of every supported write size).
 const PROGRAM: usize = 256;
+/// Bytes of an incoming image held until they make whole write units (the write size at
+/// most): kept in the store's state, so small (a compact build has little RAM).
+const STAGE_UNIT: usize = 64;
 /// Bytes read at a time when the flash reads in units larger than a byte.
 const READ_PIECE: usize = 64;
 /// Flash error code: the image read back differs from what was programmed.
@@ -51,7 +56,7 @@ pub enum LayoutError {
     /// The two slots reach beyond the flash.
     OutOfBounds,
     /// The flash's write or read size is not one this store handles (a power of two, at
-    /// most 256 bytes for writes and 64 for reads).
+    /// most 64 bytes for writes and for reads).
     UnitSize,
 }
 
@@ -110,7 +115,7 @@ enum Job {
         len: u32,
         received: u32,
         erased: u32,
-        pending: [u8; PROGRAM],
+        pending: [u8; STAGE_UNIT],
         pending_len: usize,
     },
 }
@@ -176,6 +181,8 @@ pub struct FlashStore<F: NorFlash> {
     background: Option<Background<F>>,
     /// Bit `s` set: slot `s`'s header could not be read at its last read (an ECC error).
     unreadable: u8,
+    /// How a save encodes the tables' values (a staged image keeps its own).
+    encoding: Encoding,
 }
 
 /// A slot's image as a checkpoint source.
@@ -239,26 +246,46 @@ impl<F: NorFlash> FlashStore<F> {
         64
     };
 
-    /// The smallest slot size that holds a header and the largest checkpoint on this flash.
+    /// The smallest slot size that holds a header and the largest checkpoint (f32 values)
+    /// on this flash.
     pub const fn slot_size_needed() -> u32 {
-        let needed = Self::IMAGE_AT + checkpoint::MAX_SIZE as u32;
+        Self::slot_size_needed_as(Encoding::F32)
+    }
+
+    /// The smallest slot size that holds a header and the largest checkpoint in `encoding`
+    /// on this flash.
+    pub const fn slot_size_needed_as(encoding: Encoding) -> u32 {
+        let needed = Self::IMAGE_AT + encoding.max_size() as u32;
         needed.div_ceil(F::ERASE_SIZE as u32) * F::ERASE_SIZE as u32
     }
 
     /// A store in the two slots `base..base + slot_size` and `base + slot_size..base + 2 *
-    /// slot_size` of `flash`. Nothing is read or written until asked.
+    /// slot_size` of `flash`, saving f32 images (checkpoint format 2). Nothing is read or
+    /// written until asked.
     pub fn new(flash: F, base: u32, slot_size: u32) -> Result<Self, LayoutError> {
+        Self::new_as(flash, base, slot_size, Encoding::F32)
+    }
+
+    /// [`FlashStore::new`] saving images in `encoding`: [`Encoding::Compact`] (checkpoint
+    /// format 3, half the size) for a part whose flash cannot hold two slots of f32 images
+    /// beside its program. Either store restores either format; an image staged from the bus
+    /// is kept as it came, so a compact store takes only compact images.
+    pub fn new_as(
+        flash: F,
+        base: u32,
+        slot_size: u32,
+        encoding: Encoding,
+    ) -> Result<Self, LayoutError> {
         let (w, r, e) = (F::WRITE_SIZE, F::READ_SIZE, F::ERASE_SIZE as u32);
-        if !w.is_power_of_two() || w > PROGRAM || !r.is_power_of_two() || r > READ_PIECE {
+        if !w.is_power_of_two() || w > STAGE_UNIT || !r.is_power_of_two() || r > READ_PIECE {
             return Err(LayoutError::UnitSize);
         }
         if !base.is_multiple_of(e) || !slot_size.is_multiple_of(e) {
             return Err(LayoutError::NotAligned);
         }
-        if slot_size < Self::slot_size_needed() {
-            return Err(LayoutError::TooSmall {
-                needed: Self::slot_size_needed(),
-            });
+        let needed = Self::slot_size_needed_as(encoding);
+        if slot_size < needed {
+            return Err(LayoutError::TooSmall { needed });
         }
         let end = base as u64 + 2 * slot_size as u64;
         if end > flash.capacity() as u64 {
@@ -273,7 +300,13 @@ impl<F: NorFlash> FlashStore<F> {
             prepared: None,
             background: None,
             unreadable: 0,
+            encoding,
         })
+    }
+
+    /// How a save encodes the tables' values.
+    pub fn encoding(&self) -> Encoding {
+        self.encoding
     }
 
     /// Makes each erase of a save a background erase: one save step starts it, the following
@@ -702,7 +735,8 @@ impl<F: NorFlash> FlashStore<F> {
             self.job = keep(cursor, programmed);
             return Ok(None);
         }
-        let cur = cursor.get_or_insert_with(|| ImageCursor::new(ctrl, provenance));
+        let encoding = self.encoding;
+        let cur = cursor.get_or_insert_with(|| ImageCursor::new_as(ctrl, provenance, encoding));
         if cur.len() as u32 != len {
             return Err(SaveError::Changed);
         }
@@ -763,14 +797,14 @@ impl<F: NorFlash> FlashStore<F> {
         let mut at = *received - held as u32;
         let mut rest = bytes;
         while !rest.is_empty() {
-            let take = rest.len().min(PROGRAM - held);
+            let take = rest.len().min(STAGE_UNIT - held);
             buf[held..held + take].copy_from_slice(&rest[..take]);
             held += take;
             rest = &rest[take..];
             // a full buffer (whole write units), or the image's last bytes (padded)
             let last = at + held as u32 == len;
-            let n = if last { held } else { PROGRAM };
-            if held == PROGRAM || last {
+            let n = if last { held } else { STAGE_UNIT };
+            if held == STAGE_UNIT || last {
                 self.program(slot, &mut erased_now, at, &buf[..n])
                     .map_err(flash)?;
                 buf.copy_within(n..held, 0);
@@ -863,7 +897,7 @@ impl<F: NorFlash> TableStore for FlashStore<F> {
     /// under way goes on.
     fn save_begin(&mut self, ctrl: &Controller, provenance: Provenance) -> Result<(), SaveError> {
         self.job = Job::None;
-        let len = ImageCursor::new(ctrl, provenance).len() as u32;
+        let len = ImageCursor::new_as(ctrl, provenance, self.encoding).len() as u32;
         if len > self.capacity() {
             return Err(SaveError::TooLarge);
         }
@@ -921,7 +955,7 @@ impl<F: NorFlash> TableStore for FlashStore<F> {
             len,
             received: 0,
             erased: 0,
-            pending: [0; PROGRAM],
+            pending: [0; STAGE_UNIT],
             pending_len: 0,
         };
         Ok(())

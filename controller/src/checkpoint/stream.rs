@@ -7,8 +7,8 @@
 //! [`super::restore`] refuses the same bytes, with the same error.
 
 use super::{
-    header_of, value_of, Header, Provenance, ValueLimits, CRC, HEADER_MAX, MAGIC, MAX_SIZE, SHAPE1,
-    SHAPE2, T_MAX, VALUES, VERSION,
+    header_of, Encoding, Header, Provenance, ValueLimits, CRC, HEADER_MAX, MAGIC, MAX_SIZE, SHAPE1,
+    SHAPE2, T_MAX, VALUES,
 };
 use crate::controller::Controller;
 use crate::error::{Error, Result};
@@ -20,11 +20,13 @@ const HEAD_MAX: usize = 4 + HEADER_MAX;
 /// How many bytes a source is read in at a time (on the stack).
 const PIECE: usize = 64;
 
-/// The head of an image: the magic and the header's postcard encoding.
+/// The head of an image: the magic and the header's postcard encoding, and the encoding of
+/// the values that follow.
 #[derive(Debug, Clone, Copy)]
 struct Head {
     bytes: [u8; HEAD_MAX],
     len: usize,
+    encoding: Encoding,
 }
 
 impl Head {
@@ -36,12 +38,13 @@ impl Head {
         Head {
             bytes,
             len: 4 + len,
+            encoding: Encoding::of_version(header.version).unwrap_or(Encoding::F32),
         }
     }
 
     /// Length of the whole image: head, values, CRC.
     fn image_len(&self) -> usize {
-        self.len + VALUES * 4 + 4
+        self.len + VALUES * self.encoding.width() + 4
     }
 }
 
@@ -66,10 +69,11 @@ fn body_bytes(ctrl: &Controller, head: &Head, offset: usize, buf: &mut [u8]) -> 
             buf[filled] = head.bytes[pos];
             filled += 1;
         } else if pos < body_end {
-            let (i, within) = ((pos - head.len) / 4, (pos - head.len) % 4);
-            // postcard encodes an f32 as its 4 little-endian bytes
-            let bytes = value(ctrl, i).to_le_bytes();
-            let n = (4 - within).min(buf.len() - filled);
+            let width = head.encoding.width();
+            let (i, within) = ((pos - head.len) / width, (pos - head.len) % width);
+            let mut bytes = [0u8; 4];
+            head.encoding.encode(i, value(ctrl, i), &mut bytes);
+            let n = (width - within).min(buf.len() - filled);
             buf[filled..filled + n].copy_from_slice(&bytes[within..within + n]);
             filled += n;
         } else {
@@ -97,9 +101,10 @@ fn body_crc(ctrl: &Controller, head: &Head) -> u32 {
 /// Bytes `offset..offset + buf.len()` of the checkpoint image of `ctrl` (as [`super::save`]
 /// writes it with `provenance`), for a reader that asks for pieces by position; returns how
 /// many were written (fewer at the end of the image, 0 beyond it). A range that includes the
-/// trailing CRC takes one pass over the tables to compute it.
+/// trailing CRC takes one pass over the tables to compute it. The image is format 2 (f32
+/// values), what the bus carries.
 pub fn read_at(ctrl: &Controller, provenance: Provenance, offset: usize, buf: &mut [u8]) -> usize {
-    let head = Head::of(&header_of(ctrl, provenance));
+    let head = Head::of(&header_of(ctrl, provenance, Encoding::F32));
     let len = head.image_len();
     if offset >= len {
         return 0;
@@ -116,11 +121,11 @@ pub fn read_at(ctrl: &Controller, provenance: Provenance, offset: usize, buf: &m
 
 /// The checkpoint image of a controller, written from its live tables in order, a piece at a
 /// time, with a running CRC: what a store programs into flash. The cursor keeps no reference
-/// to the controller (a few dozen bytes): each [`ImageCursor::read`] takes it again, and
-/// refuses one whose learning steps or configuration are not those the image began with.
+/// to the controller (a few dozen bytes: the header, not its encoding, which each read
+/// makes again): each [`ImageCursor::read`] takes it again, and refuses one whose learning
+/// steps or configuration are not those the image began with.
 #[derive(Clone)]
 pub struct ImageCursor {
-    head: Head,
     header: Header,
     pos: usize,
     digest: crc::Digest<'static, u32>,
@@ -138,11 +143,15 @@ impl core::fmt::Debug for ImageCursor {
 
 impl ImageCursor {
     /// A cursor at the start of the image of `ctrl`, whose configuration came from
-    /// `provenance`.
+    /// `provenance`, in format 2 (f32 values: [`super::save`]'s bytes).
     pub fn new(ctrl: &Controller, provenance: Provenance) -> ImageCursor {
-        let header = header_of(ctrl, provenance);
+        ImageCursor::new_as(ctrl, provenance, Encoding::F32)
+    }
+
+    /// [`ImageCursor::new`] in `encoding` ([`super::save_as`]'s bytes).
+    pub fn new_as(ctrl: &Controller, provenance: Provenance, encoding: Encoding) -> ImageCursor {
+        let header = header_of(ctrl, provenance, encoding);
         ImageCursor {
-            head: Head::of(&header),
             header,
             pos: 0,
             digest: CRC.digest(),
@@ -156,7 +165,7 @@ impl ImageCursor {
 
     /// The image's length in bytes.
     pub fn len(&self) -> usize {
-        self.head.image_len()
+        Head::of(&self.header).image_len()
     }
 
     /// Never true: an image holds at least its magic, header, values and CRC.
@@ -179,12 +188,13 @@ impl ImageCursor {
     /// configuration differ from those the image began with: its tables changed, the bytes
     /// written so far belong to another image.
     pub fn read(&mut self, ctrl: &Controller, buf: &mut [u8]) -> Result<usize> {
-        if header_of(ctrl, self.header.provenance) != self.header {
+        let head = Head::of(&self.header);
+        if header_of(ctrl, self.header.provenance, head.encoding) != self.header {
             return Err(Error::CheckpointChanged);
         }
-        let len = self.len();
+        let len = head.image_len();
         let want = buf.len().min(len - self.pos.min(len));
-        let n = body_bytes(ctrl, &self.head, self.pos, &mut buf[..want]);
+        let n = body_bytes(ctrl, &head, self.pos, &mut buf[..want]);
         self.digest.update(&buf[..n]);
         if n < want {
             let crc = self.digest.clone().finalize().to_le_bytes();
@@ -245,6 +255,9 @@ type SourceResult<T, E> = core::result::Result<T, SourceError<E>>;
 /// The values of an image read in order, a piece at a time, with the CRC of what was read.
 struct Values<'s, S> {
     src: &'s mut S,
+    encoding: Encoding,
+    /// The index of the next value.
+    i: usize,
     pos: usize,
     end: usize,
     piece: [u8; PIECE],
@@ -254,8 +267,13 @@ struct Values<'s, S> {
 }
 
 impl<'s, S: ImageSource> Values<'s, S> {
-    /// Reads `0..head_len` into the CRC; values follow from `head_len` until the CRC.
-    fn new(src: &'s mut S, head_len: usize) -> core::result::Result<Self, S::Error> {
+    /// Reads `0..head_len` into the CRC; values in `encoding` follow from `head_len` until
+    /// the CRC.
+    fn new(
+        src: &'s mut S,
+        head_len: usize,
+        encoding: Encoding,
+    ) -> core::result::Result<Self, S::Error> {
         let mut digest = CRC.digest();
         let mut head = [0u8; HEAD_MAX];
         src.read(0, &mut head[..head_len])?;
@@ -263,6 +281,8 @@ impl<'s, S: ImageSource> Values<'s, S> {
         let end = src.len() - 4;
         Ok(Values {
             src,
+            encoding,
+            i: 0,
             pos: head_len,
             end,
             piece: [0; PIECE],
@@ -274,9 +294,11 @@ impl<'s, S: ImageSource> Values<'s, S> {
 
     /// The next value; `None` after the last.
     fn next(&mut self) -> Option<core::result::Result<f32, S::Error>> {
+        let width = self.encoding.width();
         if self.at == self.filled {
+            // whole values: PIECE is a multiple of either width
             let n = PIECE.min(self.end - self.pos);
-            if n < 4 {
+            if n < width {
                 return None;
             }
             if let Err(e) = self.src.read(self.pos, &mut self.piece[..n]) {
@@ -287,8 +309,11 @@ impl<'s, S: ImageSource> Values<'s, S> {
             self.at = 0;
             self.filled = n;
         }
-        let x = value_of(&self.piece[self.at..self.at + 4]);
-        self.at += 4;
+        let x = self
+            .encoding
+            .decode(self.i, &self.piece[self.at..self.at + width]);
+        self.at += width;
+        self.i += 1;
         Some(Ok(x))
     }
 
@@ -301,8 +326,9 @@ impl<'s, S: ImageSource> Values<'s, S> {
 }
 
 /// Checks the framing of an image (length, magic, header, version, shapes) as
-/// [`super::verify`] does; returns the header and the head's length. The CRC is not read.
-fn check_frame<S: ImageSource>(src: &mut S) -> SourceResult<(Header, usize), S::Error> {
+/// [`super::verify`] does; returns the header, the head's length and the values' encoding.
+/// The CRC is not read.
+fn check_frame<S: ImageSource>(src: &mut S) -> SourceResult<(Header, usize, Encoding), S::Error> {
     let len = src.len();
     let length = Error::CheckpointLength {
         expected: MAX_SIZE,
@@ -322,24 +348,25 @@ fn check_frame<S: ImageSource>(src: &mut S) -> SourceResult<(Header, usize), S::
     let (header, rest) = postcard::take_from_bytes::<Header>(&head[4..4 + header_bytes])
         .map_err(|_| SourceError::Checkpoint(length))?;
     let head_len = 4 + header_bytes - rest.len();
-    if header.version != VERSION {
+    let Some(encoding) = Encoding::of_version(header.version) else {
         return Err(Error::CheckpointVersion {
             found: header.version,
         }
         .into());
-    }
+    };
     if header.shape1 != SHAPE1 || header.shape2 != SHAPE2 {
         return Err(Error::CheckpointShape.into());
     }
     let values = len - 4 - head_len;
-    if values != VALUES * 4 {
+    let expected = VALUES * encoding.width();
+    if values != expected {
         return Err(Error::CheckpointLength {
-            expected: len - values + VALUES * 4,
+            expected: len - values + expected,
             found: len,
         }
         .into());
     }
-    Ok((header, head_len))
+    Ok((header, head_len, encoding))
 }
 
 /// Reads every value once: the CRC check and whether all values are within their bounds.
@@ -347,9 +374,10 @@ fn first_pass<S: ImageSource>(
     src: &mut S,
     header: &Header,
     head_len: usize,
+    encoding: Encoding,
 ) -> SourceResult<bool, S::Error> {
     let limits = ValueLimits::new();
-    let mut values = Values::new(src, head_len).map_err(SourceError::Read)?;
+    let mut values = Values::new(src, head_len, encoding).map_err(SourceError::Read)?;
     let mut within = true;
     let mut i = 0;
     while let Some(x) = values.next() {
@@ -371,8 +399,8 @@ fn first_pass<S: ImageSource>(
 /// [`super::verify`] checks (length, magic, version, shapes, CRC, learning steps), reading
 /// the source once.
 pub fn verify_from<S: ImageSource>(src: &mut S) -> SourceResult<Header, S::Error> {
-    let (header, head_len) = check_frame(src)?;
-    first_pass(src, &header, head_len)?;
+    let (header, head_len, encoding) = check_frame(src)?;
+    first_pass(src, &header, head_len, encoding)?;
     Ok(header)
 }
 
@@ -381,8 +409,8 @@ pub fn verify_from<S: ImageSource>(src: &mut S) -> SourceResult<Header, S::Error
 /// restoring it; returns its header. A store checks a staged image with it before it makes
 /// it the stored copy.
 pub fn check_from<S: ImageSource>(src: &mut S) -> SourceResult<Header, S::Error> {
-    let (header, head_len) = check_frame(src)?;
-    if !first_pass(src, &header, head_len)? {
+    let (header, head_len, encoding) = check_frame(src)?;
+    if !first_pass(src, &header, head_len, encoding)? {
         return Err(Error::CheckpointContents.into());
     }
     Ok(header)
@@ -412,9 +440,10 @@ pub fn restore_from<S: ImageSource>(
         return Err(Error::Busy.into());
     }
     let header = check_from(src)?;
-    let head_len = src.len() - 4 - VALUES * 4;
+    let encoding = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let head_len = src.len() - 4 - VALUES * encoding.width();
     let limits = ValueLimits::new();
-    let mut values = Values::new(src, head_len).map_err(SourceError::Read)?;
+    let mut values = Values::new(src, head_len, encoding).map_err(SourceError::Read)?;
     let mut i = 0;
     let mut changed = false;
     let mut read_error = None;
@@ -673,6 +702,95 @@ mod tests {
             let mut bytes = good.to_vec();
             bytes[head + 4 * index..head + 4 * index + 4].copy_from_slice(&bits.to_le_bytes());
             fix_crc(&mut bytes);
+            same_verdict(&bytes)?;
+        }
+    }
+
+    fn saved_as(c: &Controller, prov: Provenance, encoding: Encoding) -> Vec<u8> {
+        let mut buf = vec![0u8; encoding.max_size()];
+        let n = super::super::save_as(c, prov, encoding, &mut buf).unwrap();
+        buf.truncate(n);
+        buf
+    }
+
+    fn compact_image() -> &'static [u8] {
+        static IMAGE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+        IMAGE.get_or_init(|| saved_as(&controller(20), Provenance::CUSTOM, Encoding::Compact))
+    }
+
+    /// A compact image: format 3, two bytes a value (half an f32 image's values), the
+    /// cursor's bytes whatever the piece, restored exactly (a compact build's tables bit for
+    /// bit; an f32 build's to the nearest step, so that saving it compact again gives the
+    /// same bytes), and streamed or whole alike.
+    #[test]
+    fn a_compact_image_is_half_the_values_and_restores_to_the_step() {
+        let a = controller(12);
+        let f32_image = saved(&a, Provenance::CUSTOM);
+        let compact = saved_as(&a, Provenance::CUSTOM, Encoding::Compact);
+        assert_eq!(compact.len(), f32_image.len() - VALUES * 2);
+        assert!(compact.len() <= Encoding::Compact.max_size());
+        assert_eq!(
+            verify(&compact).unwrap().version,
+            super::super::COMPACT_VERSION
+        );
+        for piece in [1usize, 3, 64, 4096] {
+            let mut cur = ImageCursor::new_as(&a, Provenance::CUSTOM, Encoding::Compact);
+            assert_eq!(cur.len(), compact.len());
+            let mut got = Vec::new();
+            let mut buf = vec![0u8; piece];
+            while let Ok(n @ 1..) = cur.read(&a, &mut buf) {
+                got.extend_from_slice(&buf[..n]);
+            }
+            assert!(got == compact, "piece {piece}: the streamed image differs");
+        }
+        let mut b = controller(13);
+        restore(&mut b, &compact).unwrap();
+        let mut c = controller(14);
+        restore_from(&mut c, &mut compact.as_slice()).unwrap();
+        assert!(b.stage1().net() == c.stage1().net() && b.stage2().net() == c.stage2().net());
+        assert_eq!(saved_as(&b, Provenance::CUSTOM, Encoding::Compact), compact);
+        let s = crate::entry::TABLE_SCALES;
+        for (i, step) in [(0, s.w.step), (8000, s.p.step), (13_000, s.a.step)] {
+            let (x, y) = (value(&a, i), value(&b, i));
+            if cfg!(feature = "compact") {
+                assert_eq!(x.to_bits(), y.to_bits(), "value {i}");
+            } else {
+                assert!(
+                    (x - y).abs() <= step / 2.0,
+                    "value {i}: {x} restored as {y}"
+                );
+            }
+        }
+        if cfg!(feature = "compact") {
+            assert!(
+                b.stage1().net() == a.stage1().net(),
+                "a compact build's tables change"
+            );
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+
+        /// A compact image changed anywhere (CRC left or made right), or cut, is refused by
+        /// the streamed checks exactly as by `verify` and `restore`.
+        #[test]
+        fn streamed_checks_refuse_what_restore_refuses_in_a_compact_image(
+            at in 0usize..(4 + HEADER_MAX + 64),
+            xor in 1u8..=255,
+            fix in any::<bool>(),
+            cut in 1usize..(4 + HEADER_MAX + 16),
+            kind in 0u8..2,
+        ) {
+            let mut bytes = compact_image().to_vec();
+            if kind == 0 {
+                bytes[at] ^= xor;
+            } else {
+                bytes.truncate(bytes.len() - cut);
+            }
+            if fix {
+                fix_crc(&mut bytes);
+            }
             same_verdict(&bytes)?;
         }
     }

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
+use trn_controller::checkpoint::Encoding;
 use trn_controller::persist::StoredCopy;
 use trn_controller::WithStore;
 use trn_controller::{Config, Controller};
@@ -153,14 +154,21 @@ pub fn tables_file_len() -> u64 {
 
 /// A store in memory (the in-process controller without a tables file): empty at start.
 pub fn memory_store() -> BoardStore {
-    let slot = BoardStore::slot_size_needed();
+    memory_store_as(Encoding::F32)
+}
+
+/// A store in memory that saves images in `encoding`, with slots of that encoding's size:
+/// [`Encoding::Compact`] stands for a board whose flash holds compact images only (an
+/// STM32G474's).
+pub fn memory_store_as(encoding: Encoding) -> BoardStore {
+    let slot = BoardStore::slot_size_needed_as(encoding);
     let flash = BoardFlash {
         mem: RamFlash::new(vec![0; 2 * slot as usize]),
         file: None,
         slot_size: slot,
     };
     // cannot fail: the layout is the one the store asks for
-    FlashStore::new(flash, 0, slot).expect("the store's own layout")
+    FlashStore::new_as(flash, 0, slot, encoding).expect("the store's own layout")
 }
 
 /// The store in the tables file `path`: created erased if no file of that name exists,

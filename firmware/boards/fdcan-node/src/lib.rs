@@ -12,8 +12,12 @@
 //!   node's [`trn_node::ControllerNode::poll_timeout`], with embassy-time's clock as `now_ms`;
 //!   it logs each trial with the node's counters and the stack's high-water mark
 //!   ([`stack_high_water_mark`]), and feeds the board's watchdog once a turn.
+//! - [`guard_stack`]: an MPU region at the stack's bottom, so that an overflow faults and
+//!   resets the part instead of overwriting the static data.
 //! - [`health`]: FDCAN1's error counters, fault confinement state and receive overruns read
 //!   each turn for the node's health policy, and the restart after a bus-off's hold-off.
+//! - [`store`]: what the boards' stores of their learned tables share: the flash error with
+//!   its ECC case, how often a board saves, the restore at boot and its log.
 //! - [`recover`]: a panic or a hard fault logs its cause and resets the part; the HSE's start
 //!   bounded ([`recover::hse_started`]).
 //!
@@ -30,11 +34,12 @@ mod port;
 pub mod recover;
 mod run;
 mod stack;
+pub mod store;
 
 pub use fdcan::{start, Fdcan, KernelClock};
 pub use port::{FdcanPort, PortError};
 pub use run::{now_ms, rng_draws, run, NodeState};
-pub use stack::stack_high_water_mark;
+pub use stack::{guard as guard_stack, stack_high_water_mark, GUARD as STACK_GUARD};
 /// The node's timing and save settings ([`NodeState::with_config`]).
 pub use trn_node::NodeConfig;
 /// The reset flags a board reads at boot ([`NodeState::reset_cause`]).

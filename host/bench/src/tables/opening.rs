@@ -195,7 +195,7 @@ where
                     describe(&before, o.image)
                 ));
             }
-            write(runner, bytes, guarded)?;
+            write(runner, bytes, guarded, observer)?;
             runner.configure(o.with_keep(true))?;
         }
     }

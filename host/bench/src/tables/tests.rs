@@ -67,10 +67,17 @@ fn image(c: &Controller) -> Vec<u8> {
 /// A board holding `ctrl`'s tables as its stored copy, restored at boot (a board that
 /// learned them and was reset), on the in-process bus with `faults`.
 fn bus(ctrl: Box<Controller>, mode: BusMode, faults: Option<FaultConfig>) -> Bus {
-    let mut b = Board {
-        ctrl,
-        store: board::memory_store(),
-    };
+    bus_with(ctrl, mode, faults, board::memory_store())
+}
+
+/// [`bus`] with the board's store `store`.
+fn bus_with(
+    ctrl: Box<Controller>,
+    mode: BusMode,
+    faults: Option<FaultConfig>,
+    store: board::BoardStore,
+) -> Bus {
+    let mut b = Board { ctrl, store };
     b.store.save_begin(&b.ctrl, PROVENANCE).unwrap();
     let copy = loop {
         if let Some(c) = b.store.save_step(&b.ctrl).unwrap() {
@@ -105,7 +112,7 @@ fn round_trip(mode: BusMode, faults: Option<FaultConfig>) -> Runner<Bus> {
     let mut r = runner(bus(mine, mode, faults), mode);
     let before = status(&mut r).unwrap();
     assert_eq!((before.steps1, before.steps2), (0, 0));
-    let applied = write(&mut r, &image(&theirs), false).unwrap();
+    let applied = write(&mut r, &image(&theirs), false, &mut Told::default()).unwrap();
     assert_eq!(applied.steps1, 3);
     assert_eq!(held(&r), image(&theirs), "the tables written in");
     let now = status(&mut r).unwrap();
@@ -124,6 +131,51 @@ fn tables_round_trip_bit_for_bit_on_can_2_0_and_fd() {
             "{mode:?}: nothing lost, nothing repeated"
         );
     }
+}
+
+/// A board whose store keeps compact images only (an STM32G474's) refuses an f32 image as
+/// too large; the writer says so and writes it compact: the board holds the tables rounded
+/// to the compact steps, as its newest stored copy.
+#[test]
+fn tables_written_into_a_compact_store_go_compact() {
+    use checkpoint::Encoding;
+    let (mine, theirs) = (tables(1, 0), tables(2, 3));
+    let mode = BusMode::Fd;
+    let store = board::memory_store_as(Encoding::Compact);
+    let mut r = runner(bus_with(mine, mode, None, store), mode);
+    let mut told = Told::default();
+    let applied = write(&mut r, &image(&theirs), false, &mut told).unwrap();
+    assert_eq!(applied.steps1, 3);
+    assert!(
+        told.0.iter().any(|t| t.contains("compact tables only")),
+        "{:?}",
+        told.0
+    );
+    let mut compact = vec![0u8; Encoding::Compact.max_size()];
+    let n = checkpoint::save_as(&theirs, PROVENANCE, Encoding::Compact, &mut compact).unwrap();
+    let board = r.rig().port().controller();
+    let mut held_compact = vec![0u8; Encoding::Compact.max_size()];
+    let m = checkpoint::save_as(
+        &board.ctrl,
+        PROVENANCE,
+        Encoding::Compact,
+        &mut held_compact,
+    )
+    .unwrap();
+    assert_eq!(
+        held_compact[..m],
+        compact[..n],
+        "the tables, rounded to the steps"
+    );
+    assert_eq!(
+        applied.stored_sequence, 2,
+        "applied as the newest stored copy"
+    );
+    assert_eq!(
+        applied.image_len as usize,
+        image(&theirs).len(),
+        "the read-out's length"
+    );
 }
 
 /// A lost frame costs a repeat, never a wrong byte: 5 % of the frames dropped, duplicated,
@@ -154,7 +206,7 @@ fn a_new_writer_resumes_where_the_node_stands() {
     let theirs = image(&tables(2, 3));
     let full = {
         let mut r = runner(bus(tables(1, 0), mode, None), mode);
-        write(&mut r, &theirs, false).unwrap();
+        write(&mut r, &theirs, false, &mut Told::default()).unwrap();
         r.rig().port().bus_stats().sent
     };
     let mut r = runner(bus(tables(1, 0), mode, None), mode);
@@ -181,7 +233,7 @@ fn a_new_writer_resumes_where_the_node_stands() {
         .is_some()
     {}
     let sent_before = r.rig().port().bus_stats().sent;
-    write(&mut r, &theirs, false).unwrap();
+    write(&mut r, &theirs, false, &mut Told::default()).unwrap();
     let resumed = r.rig().port().bus_stats().sent - sent_before;
     assert_eq!(held(&r), theirs);
     assert!(
@@ -301,7 +353,7 @@ fn a_write_refused_for_want_of_a_nonce_asks_for_one() {
     let mut r = runner(bus(tables(4, 5), mode, None), mode);
     r.rig_mut().start_journal();
     let theirs = image(&tables(6, 1));
-    write(&mut r, &theirs, false).unwrap();
+    write(&mut r, &theirs, false, &mut Told::default()).unwrap();
     assert_eq!(held(&r), theirs);
     let j = r.rig().journal();
     let nonces = j

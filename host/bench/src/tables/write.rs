@@ -16,6 +16,7 @@ use trn_protocol::{
 
 use super::{failed, guard_refusal, nonce, request, retry_with_new_nonce, tables_failure, WINDOW};
 use crate::error::{LabError, Result};
+use crate::observe::Observer;
 use crate::rig::Event;
 use crate::runner::Runner;
 
@@ -35,7 +36,65 @@ enum Next {
 /// Writes `image` (a verified checkpoint) into the controller and waits until it applied
 /// it; `guarded`: its tables learned, so the begin carries a nonce of the guard. Returns
 /// the controller's `TablesStatus{Applied}`.
-pub fn write<P>(runner: &mut Runner<P>, image: &[u8], guarded: bool) -> Result<TablesStatus>
+///
+/// A controller whose store keeps compact images only (a part with little flash: its slots
+/// hold half an f32 image) refuses the begin of an f32 image as out of range; the image is
+/// then written again in the compact encoding (checkpoint format 3: the values rounded to
+/// the compact tables' steps, as such a controller rounds them anyway), and a notice says so.
+pub fn write<P>(
+    runner: &mut Runner<P>,
+    image: &[u8],
+    guarded: bool,
+    observer: &mut dyn Observer,
+) -> Result<TablesStatus>
+where
+    P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
+{
+    let read_len = image.len() as u32;
+    match write_image(runner, image, guarded, read_len)? {
+        Written::Applied(s) => Ok(s),
+        Written::TooLarge(d) => {
+            let compact = checkpoint::Encoding::Compact;
+            let header = checkpoint::verify(image).map_err(|e| {
+                LabError::Usage(format!("the image to write is not a checkpoint: {e}"))
+            })?;
+            if checkpoint::Encoding::of_version(header.version) == Some(compact) {
+                return Err(LabError::Controller(tables_failure(d)));
+            }
+            let mut buf = vec![0u8; compact.max_size()];
+            let n = checkpoint::transcode(image, compact, &mut buf).map_err(|e| {
+                LabError::Usage(format!("the image could not be made compact: {e}"))
+            })?;
+            observer.notice(&format!(
+                "the controller's store takes compact tables only: writing them in checkpoint format {} ({n} bytes, the values rounded to its steps)",
+                compact.version()
+            ));
+            // its status gives the length of its tables' read-out (f32 values): the original's
+            match write_image(runner, &buf[..n], guarded, read_len)? {
+                Written::Applied(s) => Ok(s),
+                Written::TooLarge(d) => Err(LabError::Controller(tables_failure(d))),
+            }
+        }
+    }
+}
+
+/// How a write ended.
+enum Written {
+    /// Applied: the controller's status.
+    Applied(TablesStatus),
+    /// The begin was refused as out of range (the `TABLES_FAILED` detail): the image is
+    /// larger than the controller's store takes.
+    TooLarge(u32),
+}
+
+/// Writes `image` in; the controller's status after it must name its header's learning
+/// steps and fingerprint, and `read_len` (the length of the tables' read-out).
+fn write_image<P>(
+    runner: &mut Runner<P>,
+    image: &[u8],
+    guarded: bool,
+    read_len: u32,
+) -> Result<Written>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
@@ -82,19 +141,20 @@ where
                     }
                     Begun::Guard(d) if retry_with_new_nonce(d) => Next::Begin,
                     Begun::Guard(d) => return Err(LabError::Controller(guard_refusal(d))),
+                    Begun::TooLarge(d) => return Ok(Written::TooLarge(d)),
                 }
             }
             Next::Chunks(from) => chunks(runner, image, from, count as u16, crc)?,
             Next::End => match end(runner, crc, count)? {
                 Ended::Applied(s) => {
                     if (s.steps1, s.steps2, s.fingerprint, s.image_len)
-                        != (header.t1, header.t2, header.config_fingerprint, len)
+                        != (header.t1, header.t2, header.config_fingerprint, read_len)
                     {
                         return Err(LabError::Controller(format!(
                             "applied tables other than those written in: its status {s:?}"
                         )));
                     }
-                    return Ok(s);
+                    return Ok(Written::Applied(s));
                 }
                 Ended::Resume(n) => Next::Chunks(n),
                 Ended::Lost => Next::Begin,
@@ -109,6 +169,8 @@ enum Begun {
     At(u16),
     /// Refused by the guard (the detail).
     Guard(u32),
+    /// Refused as out of range (the detail): larger than the store takes.
+    TooLarge(u32),
 }
 
 fn begin_write<P>(runner: &mut Runner<P>, begin: TableWriteBegin) -> Result<Begun>
@@ -126,8 +188,13 @@ where
             Message::ErrorReport(e) if e.code == codes::GUARD_REFUSED && e.detail >> 8 == 2 => {
                 Some(Ok(Begun::Guard(e.detail)))
             }
-            _ => failed(m, table_op::WRITE_BEGIN)
-                .map(|d| Err(LabError::Controller(tables_failure(d)))),
+            _ => failed(m, table_op::WRITE_BEGIN).map(|d| {
+                if d & 0xFF == table_reason::OUT_OF_RANGE {
+                    Ok(Begun::TooLarge(d))
+                } else {
+                    Err(LabError::Controller(tables_failure(d)))
+                }
+            }),
         },
     )
 }

@@ -5,8 +5,8 @@
 //!
 //! The learned tables are kept in the part's own flash ([`store`]): the newest intact copy is
 //! restored at boot and announced; the node saves on a `StoreCommand`, on entering `Mature`
-//! and every [`SAVE_EVERY_STEPS`] learning steps. The store reads the flash with bus faults
-//! masked and checks the ECC flags, so a flash word torn by a power cut is a damaged copy,
+//! and every 2,887 learning steps (`trn_fdcan_node::store`). The store reads the flash with
+//! bus faults masked and checks the ECC flags, so a flash word torn by a power cut is a damaged copy,
 //! never a fault at every boot.
 //!
 //! The independent watchdog resets the part when the node's loop stops turning for
@@ -26,9 +26,7 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, rcc};
 use static_cell::ConstStaticCell;
 use trn_controller::{Controller, WithStore};
-use trn_fdcan_node::{bitrate, recover, KernelClock, NodeConfig, NodeState, ResetFlags};
-use trn_store::policy::{steps_between_saves, Endurance};
-use trn_store::RestoreError;
+use trn_fdcan_node::{bitrate, recover, KernelClock, NodeState, ResetFlags};
 
 bind_interrupts!(struct Irqs {
     FDCAN1_IT0 => can::IT0InterruptHandler<FDCAN1>;
@@ -47,22 +45,9 @@ const TX_FRAMES: usize = 32;
 /// Both networks, zeroed (in `.bss`) until a `SessionConfig` configures and seeds them.
 static CONTROLLER: ConstStaticCell<Controller> = ConstStaticCell::new(Controller::new_zeroed());
 static NODE: ConstStaticCell<NodeState> =
-    ConstStaticCell::new(NodeState::with_config(NodeConfig {
-        save_every_steps: SAVE_EVERY_STEPS,
-        ..NodeConfig::DEFAULT
-    }));
+    ConstStaticCell::new(NodeState::with_config(trn_fdcan_node::store::NODE_CONFIG));
 static RX_BUFFER: ConstStaticCell<RxFdBuf<RX_FRAMES>> = ConstStaticCell::new(RxFdBuf::new());
 static TX_BUFFER: ConstStaticCell<TxFdBuf<TX_FRAMES>> = ConstStaticCell::new(TxFdBuf::new());
-
-/// Learning steps between two saves by steps (2,887): what the H7's flash (10,000 erase
-/// cycles per sector) allows for ten years of 5,000 learning steps and one other save a day
-/// (`trn_store::policy`).
-const SAVE_EVERY_STEPS: u32 = steps_between_saves(&Endurance {
-    erase_cycles: 10_000,
-    years: 10,
-    steps_per_day: 5_000,
-    other_saves_per_day: 1,
-});
 
 /// The watchdog's period: above the longest turn of the node's loop, a `StoreCommand{Erase}`
 /// that erases the store's four sectors in one turn (ST: 2.2 s maximum each at x32; the
@@ -74,36 +59,10 @@ mod store {
     use cortex_m::peripheral::SCB;
     use embassy_stm32::flash::{Blocking, Error, Flash, FLASH_BASE, FLASH_SIZE};
     use embassy_stm32::pac;
-    use embedded_storage::nor_flash::{
-        ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
-    };
+    use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
     use trn_store::{BackgroundErase, FlashStore};
 
-    /// What the store's flash refused: embassy's error, or a read that met a flash word whose
-    /// ECC found a double error (a word torn by a power cut), which the store takes for a
-    /// damaged copy (kind `Other`).
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub enum FlashError {
-        /// embassy's flash driver refused.
-        Flash(Error),
-        /// A read met an uncorrectable ECC error (FLASH_SR DBECCERR).
-        Ecc,
-    }
-
-    impl From<Error> for FlashError {
-        fn from(e: Error) -> Self {
-            FlashError::Flash(e)
-        }
-    }
-
-    impl NorFlashError for FlashError {
-        fn kind(&self) -> NorFlashErrorKind {
-            match self {
-                FlashError::Flash(e) => e.kind(),
-                FlashError::Ecc => NorFlashErrorKind::Other,
-            }
-        }
-    }
+    pub use trn_fdcan_node::store::FlashError;
 
     /// SCB CCR's BFHFNMIGN: precise data bus faults ignored at a priority of -1 and below.
     const BFHFNMIGN: u32 = 1 << 8;
@@ -322,27 +281,6 @@ mod store {
     }
 }
 
-/// What a boot that restored nothing logs (as the host's `board::restore_problem`).
-fn restore_problem(e: &RestoreError) {
-    match e {
-        RestoreError::NothingStored => defmt::info!("no tables stored: the tables start zeroed"),
-        RestoreError::AllCorrupt => {
-            defmt::warn!("no intact copy of the tables is stored: the tables start zeroed")
-        }
-        RestoreError::Format { found } => defmt::warn!(
-            "the stored tables are in store format {}, which this build does not read",
-            found
-        ),
-        RestoreError::Image(_) => defmt::warn!("the stored tables are refused (checkpoint)"),
-        RestoreError::Fingerprint { .. } | RestoreError::Busy => {
-            defmt::warn!("the stored tables could not be restored")
-        }
-        RestoreError::Flash(code) => {
-            defmt::warn!("the stored tables could not be read (flash error {})", code)
-        }
-    }
-}
-
 /// Switches the HSE on in bypass (the ST-LINK's clock output) and waits for it, bounded:
 /// true when it runs.
 fn hse_starts() -> bool {
@@ -408,6 +346,7 @@ fn reset_flags() -> ResetFlags {
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    trn_fdcan_node::guard_stack();
     let flags = reset_flags();
     let hse = hse_starts();
     let p = embassy_stm32::init(clocks(hse));
@@ -446,29 +385,7 @@ async fn main(_spawner: Spawner) {
     };
     let node = NODE.take();
     // the newest intact copy, announced by the node at its first turn
-    let restored = match board.store.restore(board.ctrl, None) {
-        Ok(copy) => {
-            defmt::info!(
-                "tables restored from flash: copy {}, {} + {} learning steps, {} B",
-                copy.sequence,
-                copy.steps.0,
-                copy.steps.1,
-                copy.len
-            );
-            Some(copy)
-        }
-        Err(e) => {
-            restore_problem(&e);
-            None
-        }
-    };
-    let torn = board.store.unreadable_slots();
-    if torn != 0 {
-        defmt::warn!(
-            "store slots {=u8:b}: a flash word torn by a power cut (ECC); no copy there, the next save erases it",
-            torn
-        );
-    }
+    let restored = trn_fdcan_node::store::restore_at_boot(&mut board.store, board.ctrl);
     // the reset cause (logged, announced at the loop's start); the guard seeded from the
     // part's RNG (HSI48), so tables can be replaced or erased over the bus
     node.boot(flags, &mut Rng::new(p.RNG, Irqs)).await;
@@ -493,7 +410,7 @@ async fn main(_spawner: Spawner) {
         "trn-controller on STM32H743: f32 tables (store: 2 slots of {} B at 0x{:x}, saves every {} learning steps), CAN {} bit/s, FD data phase {} bit/s; waiting for a SessionConfig",
         store::SLOT,
         embassy_stm32::flash::FLASH_BASE as u32 + store::STORE_AT,
-        SAVE_EVERY_STEPS,
+        trn_fdcan_node::store::SAVE_EVERY_STEPS,
         bitrate::NOMINAL,
         bitrate::DATA
     );
