@@ -16,6 +16,8 @@ mod pil;
 mod store;
 #[cfg(feature = "pil")]
 mod uart;
+#[cfg(feature = "pil")]
+mod watchdog;
 
 use core::panic::PanicInfo;
 use cortex_m_rt::entry;

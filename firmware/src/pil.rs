@@ -19,6 +19,7 @@ use trn_protocol::{BusMode, CanFrame, Encoder, Reassembler, DEFAULT_STALE_MS};
 use crate::count::Clock;
 use crate::store;
 use crate::uart::Uart;
+use crate::watchdog;
 
 /// Without a frame for this long (ms of the firmware's clock) the firmware exits: about ten
 /// minutes of wall time under QEMU's instruction counting, far beyond any pause of a run.
@@ -77,6 +78,15 @@ pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
         rx,
         port,
     } = state;
+    // the cause of the last reset, then the watchdog armed (fed once a turn below)
+    let (cause, detail) = watchdog::take_cause();
+    hprintln!(
+        "trn-firmware pil: reset cause {} (1 power-on, 3 watchdog)",
+        cause as u32
+    );
+    watchdog::start();
+    #[cfg(feature = "watchdog-test")]
+    watchdog_test(cause);
     node.seed_guard(store::entropy());
     // the emulated flash is erased at every boot (QEMU keeps nothing between runs): there is
     // nothing to restore, and the node announces so
@@ -90,10 +100,13 @@ pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
     };
     node.tables_restored(&mut board, None);
     let ctrl: &mut dyn trn_controller::Control = &mut board;
+    // announced at the node's first turn, before its first heartbeat, as a board announces it
+    node.announce_reset(cause, detail);
     port.inner.link_mut().enable();
     let mut idle = false;
     let mut heard_ms = clock.now_ms();
     loop {
+        watchdog::feed();
         let now = clock.now_ms();
         // a transport error of the UART cannot happen (polled registers); a bad frame is
         // dropped and counted by the node, as on the host
@@ -109,5 +122,22 @@ pub fn run(ctrl: &'static mut Controller, mut clock: Clock) -> ! {
             hprintln!("trn-firmware pil: stack high-water mark: {} bytes", stack);
         }
         idle = node.idle_requested();
+    }
+}
+
+/// The watchdog's test image (`--features pil,watchdog-test`): after a power-on it stops
+/// feeding the watchdog and spins, so the watchdog's NMI records its cause and its second
+/// time-out resets the machine; the boot after that reads the record, says so and exits.
+#[cfg(feature = "watchdog-test")]
+fn watchdog_test(cause: trn_node::ResetCause) {
+    if cause == trn_node::ResetCause::Watchdog {
+        hprintln!(
+            "trn-firmware watchdog-test: reset by the watchdog, its cause read from the record"
+        );
+        debug::exit(debug::EXIT_SUCCESS);
+    }
+    hprintln!("trn-firmware watchdog-test: no longer feeding the watchdog");
+    loop {
+        core::hint::spin_loop();
     }
 }

@@ -65,6 +65,8 @@ pub struct ControllerNode {
     pub(crate) mode: Mode,
     heartbeat_due_ms: Option<u32>,
     heartbeat_counter: u8,
+    /// The reset cause to announce at the next poll, before the first heartbeat.
+    reset_report: Option<ErrorReport>,
     idle_requested: bool,
     /// The session configuration in force (the last one accepted; none after `Idle`).
     pub(crate) session: Option<SessionConfig>,
@@ -113,6 +115,7 @@ impl ControllerNode {
             mode: Mode::Idle,
             heartbeat_due_ms: None,
             heartbeat_counter: 0,
+            reset_report: None,
             idle_requested: false,
             session: None,
             session_required: false,
@@ -196,6 +199,14 @@ impl ControllerNode {
         self.stats.frame_errors = self.stats.frame_errors.saturating_add(1);
     }
 
+    /// The cause of the part's last reset and its detail (`crate::reset`), announced with
+    /// `ErrorReport{RESET_CAUSE}` at the next poll, before the first heartbeat (protocol/SPEC.md
+    /// section 7): a board calls this at boot. The report goes out through the node's own
+    /// turn, so a board needs no frames of its own for it.
+    pub fn announce_reset(&mut self, cause: crate::reset::ResetCause, detail: u32) {
+        self.reset_report = Some(crate::reset::reset_report(cause, detail));
+    }
+
     /// The trial in progress, if any.
     pub fn trial(&self) -> Option<u32> {
         self.trial
@@ -203,6 +214,9 @@ impl ControllerNode {
 
     /// Timers: heartbeats, and the repeats and give-ups of unanswered requests.
     pub fn poll<C: Control + ?Sized>(&mut self, ctrl: &mut C, now_ms: u32, out: &mut Outbox) {
+        if let Some(r) = self.reset_report.take() {
+            push(out, NodeId::Controller, r.into());
+        }
         let due = *self.heartbeat_due_ms.get_or_insert(now_ms);
         if now_ms.wrapping_sub(due) < u32::MAX / 2 {
             let hb = Heartbeat {

@@ -49,8 +49,9 @@ pub type Record = [u32; 4];
 const MARKER: u32 = 0x5452_4E52;
 
 /// The record a panic (`detail`: its source line) or a hard fault (`detail`: the faulting
-/// instruction's address) leaves before resetting the part. Any other cause records
-/// nothing: the reset flags tell it.
+/// instruction's address) leaves before resetting the part, or a watchdog's early warning on
+/// a part that keeps no reset flags of its own (the QEMU machine's CMSDK watchdog). Any other
+/// cause records nothing: the reset flags tell it.
 pub fn record(cause: ResetCause, detail: u32) -> Record {
     let cause = cause as u32;
     [
@@ -62,7 +63,7 @@ pub fn record(cause: ResetCause, detail: u32) -> Record {
 }
 
 /// The cause and detail of a record, if it is one a handler left (marker and check word
-/// right, a panic or a hard fault); `None` for anything else.
+/// right, a panic, a hard fault or a watchdog's warning); `None` for anything else.
 pub fn recorded(r: &Record) -> Option<(ResetCause, u32)> {
     if r[0] != MARKER || r[3] != MARKER ^ r[1].rotate_left(8) ^ r[2].rotate_left(16) {
         return None;
@@ -70,6 +71,7 @@ pub fn recorded(r: &Record) -> Option<(ResetCause, u32)> {
     match r[1] {
         c if c == ResetCause::Panic as u32 => Some((ResetCause::Panic, r[2])),
         c if c == ResetCause::HardFault as u32 => Some((ResetCause::HardFault, r[2])),
+        c if c == ResetCause::Watchdog as u32 => Some((ResetCause::Watchdog, r[2])),
         _ => None,
     }
 }

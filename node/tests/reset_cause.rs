@@ -39,8 +39,14 @@ fn ram_that_is_not_a_record_is_ignored() {
         r[i] ^= 1 << 5;
         assert_eq!(recorded(&r), None, "word {i} changed");
     }
-    // a consistent record of a cause the handlers never record
-    assert_eq!(recorded(&record(ResetCause::Watchdog, 0)), None);
+    // a consistent record of a cause no handler records
+    assert_eq!(recorded(&record(ResetCause::Pin, 0)), None);
+    assert_eq!(recorded(&record(ResetCause::Software, 0)), None);
+    // a watchdog's warning (a part without reset flags of its own) is one
+    assert_eq!(
+        recorded(&record(ResetCause::Watchdog, 0)),
+        Some((ResetCause::Watchdog, 0))
+    );
     assert_eq!(recorded(&[0; 4]), None);
     assert_eq!(recorded(&[u32::MAX; 4]), None);
 }
@@ -85,4 +91,31 @@ fn without_a_record_the_flags_tell_the_cause() {
         ResetCause::Watchdog
     );
     assert_eq!(reset_report(ResetCause::Watchdog, 0).detail, 3 << 24);
+}
+
+/// The node announces the cause at its first poll, before its first heartbeat, once.
+#[test]
+fn the_node_announces_the_cause_before_its_first_heartbeat() {
+    use trn_controller::{Config, Controller};
+    use trn_node::{ControllerNode, NodeConfig, Outbox};
+    use trn_protocol::Message;
+    let mut ctrl = Box::new(Controller::new(Config::project_default()));
+    let mut n = ControllerNode::new(NodeConfig::DEFAULT);
+    n.announce_reset(ResetCause::Watchdog, 0);
+    let mut out = Outbox::new();
+    n.poll(&mut ctrl, 0, &mut out);
+    let kinds: Vec<&Message> = out.iter().map(|e| &e.msg).collect();
+    assert!(
+        matches!(kinds[..], [Message::ErrorReport(r), Message::Heartbeat(_)]
+            if r.code == RESET_CAUSE && r.detail == 3 << 24),
+        "{kinds:?}"
+    );
+    let mut again = Outbox::new();
+    n.poll(&mut ctrl, 100, &mut again);
+    assert!(
+        again
+            .iter()
+            .all(|e| !matches!(e.msg, Message::ErrorReport(_))),
+        "announced once"
+    );
 }

@@ -7,7 +7,8 @@
 # parameters from the bus (`SessionConfig`), so one firmware image runs every case:
 # seed 1 project preset on CAN 2.0, seed 100 paper preset on CAN 2.0, seed 101 project
 # preset on CAN FD; then the conformance suite against the firmware; then tables written in
-# and read out through the firmware's store, in the f32 build and in the compact build.
+# and read out through the firmware's store, in the f32 build and in the compact build; then
+# the watchdog resetting a firmware that stopped feeding it.
 #   scripts/cross/pil.sh [TRIALS]      scripts/cross/pil.sh --build-only
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
@@ -116,6 +117,21 @@ PY
     echo "pil compact tables: the $(wc -c < "$out/tables.ckpt")-byte checkpoint written into the compact firmware's store as a compact image and read back: every value the original rounded to its step ($((SECONDS - start)) s)"
 }
 compact_tables_check || { echo "pil compact tables: FAIL" >&2; status=1; }
+# the watchdog (the QEMU machine's CMSDK watchdog, fed once a turn by the node's loop in
+# every run above; each run's firmware printed its reset cause at boot and announced it on
+# the bus): an image that stops feeding it after a power-on is reset by it, and the next boot
+# reads the cause the watchdog's NMI recorded
+watchdog_check() {
+    local elf start=$SECONDS
+    elf=$(build_firmware pil-watchdog-test thumbv7em-none-eabihf pil,watchdog-test)
+    timeout 300 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
+        -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" > "$out/watchdog.txt" 2>&1 || true
+    grep -q "reset cause 1 " "$out/watchdog.txt" && grep -q "reset cause 3 " "$out/watchdog.txt" &&
+        grep -q "reset by the watchdog" "$out/watchdog.txt" || { cat "$out/watchdog.txt"; return 1; }
+    grep -q "reset cause 1 " "$out/seed1-project-firmware.txt" || { echo "pil watchdog: FAIL: the PIL run printed no reset cause"; return 1; }
+    echo "pil watchdog: a firmware that stopped feeding it was reset by the watchdog and read the cause its NMI recorded: 3 (watchdog) ($((SECONDS - start)) s)"
+}
+watchdog_check || { echo "pil watchdog: FAIL" >&2; status=1; }
 grep FAIL -A 1 "$out/conformance-broyden.txt" || true
 grep FAIL -A 1 "$out/conformance.txt" || true
 exit $status

@@ -127,6 +127,7 @@ pub fn read_at(ctrl: &Controller, provenance: Provenance, offset: usize, buf: &m
 #[derive(Clone)]
 pub struct ImageCursor {
     header: Header,
+    len: usize,
     pos: usize,
     digest: crc::Digest<'static, u32>,
 }
@@ -152,6 +153,7 @@ impl ImageCursor {
     pub fn new_as(ctrl: &Controller, provenance: Provenance, encoding: Encoding) -> ImageCursor {
         let header = header_of(ctrl, provenance, encoding);
         ImageCursor {
+            len: Head::of(&header).image_len(),
             header,
             pos: 0,
             digest: CRC.digest(),
@@ -165,7 +167,7 @@ impl ImageCursor {
 
     /// The image's length in bytes.
     pub fn len(&self) -> usize {
-        Head::of(&self.header).image_len()
+        self.len
     }
 
     /// Never true: an image holds at least its magic, header, values and CRC.
@@ -192,7 +194,7 @@ impl ImageCursor {
         if header_of(ctrl, self.header.provenance, head.encoding) != self.header {
             return Err(Error::CheckpointChanged);
         }
-        let len = head.image_len();
+        let len = self.len;
         let want = buf.len().min(len - self.pos.min(len));
         let n = body_bytes(ctrl, &head, self.pos, &mut buf[..want]);
         self.digest.update(&buf[..n]);

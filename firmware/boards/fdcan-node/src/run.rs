@@ -6,14 +6,11 @@ use embassy_stm32::rng::{self, Rng};
 use embassy_time::{with_timeout, Duration, Instant, Timer};
 use trn_controller::persist::StoredCopy;
 use trn_controller::Control;
-use trn_node::Outbox;
 use trn_node::{
-    reset_cause, reset_report, seed_from_draws, BusAction, BusHealth, BusState, ControllerNode,
-    NodeConfig, ResetCause, ResetFlags, SEED_DRAWS,
+    reset_cause, seed_from_draws, BusAction, BusHealth, BusState, ControllerNode, NodeConfig,
+    ResetFlags, SEED_DRAWS,
 };
-use trn_protocol::{
-    BusMode, Encoder, Envelope, ErrorReport, NodeId, Reassembler, DEFAULT_STALE_MS,
-};
+use trn_protocol::{BusMode, Encoder, Reassembler, DEFAULT_STALE_MS};
 
 use crate::fdcan::Fdcan;
 use crate::health;
@@ -26,8 +23,6 @@ pub struct NodeState {
     node: ControllerNode,
     enc: Encoder,
     rx: Reassembler,
-    /// Why the part last reset, announced at the loop's start.
-    reset: Option<(ResetCause, u32)>,
 }
 
 impl NodeState {
@@ -45,21 +40,21 @@ impl NodeState {
             node: ControllerNode::new(cfg),
             enc: Encoder::new(BusMode::Classic),
             rx: Reassembler::new(DEFAULT_STALE_MS),
-            reset: None,
         }
     }
 
     /// At boot, before [`run`]: why the part last reset, from its reset `flags` (read from
     /// the clock controller and cleared by the board) and the record of the panic or
     /// hard-fault handler ([`crate::recover::take_record`]), logged and announced on the bus
-    /// at the loop's start (`ErrorReport{RESET_CAUSE}`); then the guard of the learned tables
+    /// at the node's first turn, before its first heartbeat (`ErrorReport{RESET_CAUSE}`,
+    /// `ControllerNode::announce_reset`); then the guard of the learned tables
     /// seeded from the part's hardware RNG ([`rng_draws`], `trn_node::seed_from_draws`), so
     /// the node issues the nonces that re-seeding, writing in and erasing tables over the bus
     /// need (`trn ... --reset-tables`, `StoreCommand{Erase}`). An RNG that gives no seed is
     /// logged, and the node refuses those operations (`GUARD_REFUSED` reason 5).
     pub async fn boot<T: rng::Instance>(&mut self, flags: ResetFlags, rng: &mut Rng<'_, T>) {
         let (cause, detail) = reset_cause(flags, crate::recover::take_record(flags.power_on));
-        self.reset = Some((cause, detail));
+        self.node.announce_reset(cause, detail);
         defmt::info!(
             "reset cause {} (detail 0x{:x}; 1 power-on, 2 pin, 3 watchdog, 4 panic at line, 5 hard fault at pc, 6 software)",
             cause as u8,
@@ -125,8 +120,8 @@ fn instant_of(at_ms: u32) -> Instant {
     }
 }
 
-/// Runs the controller node on `can` for ever. It first announces why the part reset (when
-/// the board called [`NodeState::boot`]). Each turn hands every received frame to the
+/// Runs the controller node on `can` for ever. Its first turn announces why the part reset
+/// (when the board called [`NodeState::boot`]). Each turn hands every received frame to the
 /// node and runs its timers ([`ControllerNode::service`], the code path of the host and the
 /// QEMU firmware); then the task sleeps until the receive interrupt brings a frame or the
 /// node's [`ControllerNode::poll_timeout`] (its next heartbeat, or the repeat or give-up of
@@ -155,16 +150,8 @@ pub async fn run<const TX: usize, const RX: usize, C: Control + ?Sized>(
     state: &mut NodeState,
     mut feed: impl FnMut(),
 ) -> ! {
-    let NodeState {
-        node,
-        enc,
-        rx,
-        reset,
-    } = state;
+    let NodeState { node, enc, rx } = state;
     let mut port = FdcanPort::new(can.reader(), can.writer());
-    if let Some((cause, detail)) = reset.take() {
-        announce(enc, &mut port, reset_report(cause, detail));
-    }
     let mut port_errors: u32 = 0;
     let mut trials = 0;
     let mut bus = BusState::ErrorActive;
@@ -249,14 +236,4 @@ fn state_name(s: BusState) -> &'static str {
         BusState::ErrorPassive => "error-passive",
         BusState::BusOff => "bus-off",
     }
-}
-
-/// Sends one report of the node's, outside its turns (the reset cause at boot).
-fn announce(enc: &mut Encoder, port: &mut FdcanPort, report: ErrorReport) {
-    use embedded_can::nb::Can;
-    let mut out = Outbox::new();
-    let _ = out.push(Envelope::new(NodeId::Controller, report.into()));
-    let _ = trn_node::send(enc, &out, &mut |f| {
-        let _ = port.transmit(f);
-    });
 }
