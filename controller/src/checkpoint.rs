@@ -91,6 +91,13 @@ impl Encoding {
         4 + HEADER_MAX + VALUES * self.width() + 4
     }
 
+    /// The length of the same image (the same header) in `to`, from its length `len` in
+    /// this encoding: a reader of a controller's tables gets them in format 2 whatever the
+    /// encoding they were written in.
+    pub const fn len_as(self, len: usize, to: Encoding) -> usize {
+        len - VALUES * self.width() + VALUES * to.width()
+    }
+
     /// Writes value `i` (checkpoint order) into `out[..self.width()]`.
     fn encode(self, i: usize, x: f32, out: &mut [u8]) {
         match self {
@@ -172,6 +179,12 @@ pub struct Header {
 }
 
 impl Header {
+    /// How the image's values are encoded: the encoding its format version names (a header
+    /// [`verify`] accepted names one; any other version reads as [`Encoding::F32`]).
+    pub fn encoding(&self) -> Encoding {
+        Encoding::of_version(self.version).unwrap_or(Encoding::F32)
+    }
+
     /// True when the tables were learned under `cfg`.
     pub fn config_matches(&self, cfg: &crate::Config) -> bool {
         self.config_fingerprint == cfg.fingerprint()
@@ -284,7 +297,7 @@ pub fn save_as(
 /// only (a part with little flash).
 pub fn transcode(image: &[u8], encoding: Encoding, out: &mut [u8]) -> Result<usize> {
     let header = verify(image)?;
-    let from = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let from = header.encoding();
     let (wf, wt) = (from.width(), encoding.width());
     let values = &image[image.len() - 4 - VALUES * wf..image.len() - 4];
     let header = Header {
@@ -423,7 +436,7 @@ pub fn restore(ctrl: &mut Controller, bytes: &[u8]) -> Result<Header> {
         return Err(Error::Busy);
     }
     let header = verify(bytes)?;
-    let encoding = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let encoding = header.encoding();
     let width = encoding.width();
     let values = &bytes[bytes.len() - 4 - VALUES * width..bytes.len() - 4];
     // every value must be finite and within its table's bounds before anything is written
@@ -587,6 +600,8 @@ mod tests {
         let mut c = vec![0u8; MAX_SIZE];
         let nc = transcode(&f[..n], Encoding::Compact, &mut c).unwrap();
         assert_eq!(c[..nc], direct[..nd]);
+        assert_eq!(Encoding::Compact.len_as(nc, Encoding::F32), n);
+        assert_eq!(Encoding::F32.len_as(n, Encoding::Compact), nc);
         let mut back = vec![0u8; MAX_SIZE];
         let nb = transcode(&c[..nc], Encoding::F32, &mut back).unwrap();
         let mut b = Box::new(Controller::new(Config::project_default()));

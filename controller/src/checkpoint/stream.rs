@@ -38,7 +38,7 @@ impl Head {
         Head {
             bytes,
             len: 4 + len,
-            encoding: Encoding::of_version(header.version).unwrap_or(Encoding::F32),
+            encoding: header.encoding(),
         }
     }
 
@@ -442,7 +442,7 @@ pub fn restore_from<S: ImageSource>(
         return Err(Error::Busy.into());
     }
     let header = check_from(src)?;
-    let encoding = Encoding::of_version(header.version).unwrap_or(Encoding::F32);
+    let encoding = header.encoding();
     let head_len = src.len() - 4 - VALUES * encoding.width();
     let limits = ValueLimits::new();
     let mut values = Values::new(src, head_len, encoding).map_err(SourceError::Read)?;

@@ -64,6 +64,15 @@ fn image(c: &Controller) -> Vec<u8> {
     buf
 }
 
+/// `c`'s tables as a compact image (checkpoint format 3).
+fn compact_image(c: &Controller) -> Vec<u8> {
+    let compact = checkpoint::Encoding::Compact;
+    let mut buf = vec![0u8; compact.max_size()];
+    let n = checkpoint::save_as(c, PROVENANCE, compact, &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
 /// A board holding `ctrl`'s tables as its stored copy, restored at boot (a board that
 /// learned them and was reset), on the in-process bus with `faults`.
 fn bus(ctrl: Box<Controller>, mode: BusMode, faults: Option<FaultConfig>) -> Bus {
@@ -151,20 +160,10 @@ fn tables_written_into_a_compact_store_go_compact() {
         "{:?}",
         told.0
     );
-    let mut compact = vec![0u8; Encoding::Compact.max_size()];
-    let n = checkpoint::save_as(&theirs, PROVENANCE, Encoding::Compact, &mut compact).unwrap();
-    let board = r.rig().port().controller();
-    let mut held_compact = vec![0u8; Encoding::Compact.max_size()];
-    let m = checkpoint::save_as(
-        &board.ctrl,
-        PROVENANCE,
-        Encoding::Compact,
-        &mut held_compact,
-    )
-    .unwrap();
+    let compact = compact_image(&theirs);
     assert_eq!(
-        held_compact[..m],
-        compact[..n],
+        compact_image(&r.rig().port().controller().ctrl),
+        compact,
         "the tables, rounded to the steps"
     );
     assert_eq!(
@@ -175,6 +174,26 @@ fn tables_written_into_a_compact_store_go_compact() {
         applied.image_len as usize,
         image(&theirs).len(),
         "the read-out's length"
+    );
+}
+
+/// A compact image (a G474's tables, read out of its store) written into a board that keeps
+/// f32 images applies: the board's status names the length of its tables' read-out (format
+/// 2), which the writer expects, not the compact image's.
+#[test]
+fn a_compact_image_written_into_an_f32_board_applies() {
+    let (mine, theirs) = (tables(1, 0), tables(2, 3));
+    let mode = BusMode::Classic;
+    let mut r = runner(bus(mine, mode, None), mode);
+    let compact = compact_image(&theirs);
+    let mut told = Told::default();
+    let applied = write(&mut r, &compact, false, &mut told).unwrap();
+    assert!(told.0.is_empty(), "{:?}", told.0);
+    assert_eq!(applied.image_len as usize, image(&theirs).len());
+    assert_eq!(
+        compact_image(&r.rig().port().controller().ctrl),
+        compact,
+        "the compact tables, applied"
     );
 }
 

@@ -50,17 +50,15 @@ pub fn write<P>(
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    let read_len = image.len() as u32;
-    match write_image(runner, image, guarded, read_len)? {
+    let header = checkpoint::verify(image)
+        .map_err(|e| LabError::Usage(format!("the image to write is not a checkpoint: {e}")))?;
+    let (from, compact) = (header.encoding(), checkpoint::Encoding::Compact);
+    // its status gives the length of its tables' read-out, in format 2 whatever was written
+    let read_len = from.len_as(image.len(), checkpoint::Encoding::F32) as u32;
+    match write_image(runner, image, &header, guarded, read_len)? {
         Written::Applied(s) => Ok(s),
-        Written::TooLarge(d) => {
-            let compact = checkpoint::Encoding::Compact;
-            let header = checkpoint::verify(image).map_err(|e| {
-                LabError::Usage(format!("the image to write is not a checkpoint: {e}"))
-            })?;
-            if checkpoint::Encoding::of_version(header.version) == Some(compact) {
-                return Err(LabError::Controller(tables_failure(d)));
-            }
+        Written::TooLarge(d) if from == compact => Err(LabError::Controller(tables_failure(d))),
+        Written::TooLarge(_) => {
             let mut buf = vec![0u8; compact.max_size()];
             let n = checkpoint::transcode(image, compact, &mut buf).map_err(|e| {
                 LabError::Usage(format!("the image could not be made compact: {e}"))
@@ -69,8 +67,8 @@ where
                 "the controller's store takes compact tables only: writing them in checkpoint format {} ({n} bytes, the values rounded to its steps)",
                 compact.version()
             ));
-            // its status gives the length of its tables' read-out (f32 values): the original's
-            match write_image(runner, &buf[..n], guarded, read_len)? {
+            // the same learning steps and fingerprint: only the values' encoding differs
+            match write_image(runner, &buf[..n], &header, guarded, read_len)? {
                 Written::Applied(s) => Ok(s),
                 Written::TooLarge(d) => Err(LabError::Controller(tables_failure(d))),
             }
@@ -87,19 +85,19 @@ enum Written {
     TooLarge(u32),
 }
 
-/// Writes `image` in; the controller's status after it must name its header's learning
-/// steps and fingerprint, and `read_len` (the length of the tables' read-out).
+/// Writes `image` (verified: its `header`) in; the controller's status after it must name
+/// the header's learning steps and fingerprint, and `read_len` (the length of the tables'
+/// read-out).
 fn write_image<P>(
     runner: &mut Runner<P>,
     image: &[u8],
+    header: &checkpoint::Header,
     guarded: bool,
     read_len: u32,
 ) -> Result<Written>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
-    let header = checkpoint::verify(image)
-        .map_err(|e| LabError::Usage(format!("the image to write is not a checkpoint: {e}")))?;
     let len = image.len() as u32;
     let crc = crate::checkpoint_file::crc_of(image);
     let count = chunk_count(len);
