@@ -16,7 +16,8 @@ case $action in
     run)
         command -v probe-rs >/dev/null || { echo "board.sh: probe-rs is not installed (its runner flashes the board)" >&2; exit 1; }
         cd "$root/firmware/boards/$board"
-        CARGO_TARGET_DIR="$root/firmware/boards/target" exec $CARGO run --release --bin trn-controller
+        CARGO_TARGET_DIR="$root/firmware/boards/target" exec $CARGO run --release \
+            --config "$(remap_paths thumbv7em-none-eabihf)" --bin trn-controller
         ;;
     *) echo "board.sh: ACTION is build or run" >&2; exit 2 ;;
 esac
