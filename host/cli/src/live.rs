@@ -204,6 +204,22 @@ impl LiveStream {
             .all(|x| x.is_finite())
             .then(|| lights(&self.cfg, &t.pose));
         let last = |s: Option<scoring::StageScore>| s.map(|s| finite(s.final_px()));
+        // a grasp's cylinder (mm, base frame) and how the grasp went
+        let cylinder = t.cylinder.map(|c| {
+            json!({
+                "centre": [c.centre.x, c.centre.y, c.centre.z],
+                "axis": [c.axis.x, c.axis.y, c.axis.z],
+                "radius": c.radius,
+                "length": c.length,
+            })
+        });
+        let grasp = r.grasp.map(|g| {
+            json!({
+                "distance_mm": g.distance_mm,
+                "perpendicular_error_deg": g.perpendicular_error_deg,
+                "success": g.success,
+            })
+        });
         json!({
             "event": "trial",
             "trial": r.trial,
@@ -213,6 +229,8 @@ impl LiveStream {
             "stage1_final_px": last(scoring::stage1(r)),
             "stage2_final_px": last(scoring::stage2(r)),
             "failure": metrics::failure(r).map(|f| f.reason()),
+            "cylinder": cylinder,
+            "grasp": grasp,
         })
     }
 }
@@ -220,8 +238,15 @@ impl LiveStream {
 impl Observer for LiveStream {
     fn start(&mut self, trials: u64) {
         let cams: Vec<[f64; 3]> = self.cfg.cameras.iter().map(|c| c.position_mm).collect();
+        let sizes: Vec<_> = self.cfg.cameras.iter().map(|c| c.resolution).collect();
         let title = std::env::args().collect::<Vec<_>>().join(" ");
-        self.send(json!({"event": "start", "trials": trials, "cameras": cams, "title": title}));
+        self.send(json!({
+            "event": "start",
+            "trials": trials,
+            "cameras": cams,
+            "image_sizes": sizes,
+            "title": title,
+        }));
     }
     fn phase(&mut self, name: &str) {
         self.send(json!({"event": "phase", "name": name}));

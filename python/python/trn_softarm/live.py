@@ -1,16 +1,24 @@
 """The live view: a run or an environment shown in the rerun viewer while it goes on, or
 saved as a recording (.rrd) to open later (``rerun run.rrd``).
 
-What it shows, on the timelines ``trial`` and ``move`` (and ``sim_time``, the plant's time):
+What it shows, everything that changes on the timelines ``trial`` and ``move`` (and
+``sim_time``, the plant's simulated time, from the first move on):
 
-- ``arm/links`` and ``arm/joints``: the arm (base, shoulder, elbow, wrist, gripper centre)
-  after each move, ``arm/lights``: its lights p and q; ``target/lights``: the target's
-  (mm, base frame: x forward, y left, z up);
-- ``camera_0/…``, ``camera_1/…``: the lights as read and the target in each image (pixels);
+- ``world/arm/links`` and ``world/arm/joints``: the arm (base, shoulder, elbow, wrist,
+  gripper centre) after each move, ``world/arm/lights``: its lights p and q;
+  ``world/target/lights``: the target's; ``world/cameras``: the cameras (mm, base frame:
+  x forward, y left, z up);
+- ``camera_0/…``, ``camera_1/…``: the lights as read and the target in each image (pixels),
+  ``camera_k/image``: the image's frame;
 - ``error/measured_px`` and ``error/true_px``: each move's error;
 - ``curve/stage1_px``, ``curve/stage2_px``: the learning curve (each training trial's final
-  error), ``eval/…`` the evaluations' trials;
-- ``log``: the run's phases and messages.
+  error), ``eval/<phase>/…`` the other phases' trials;
+- ``log``: the run's phases, messages and failed trials.
+
+The recording carries its blueprint: the arm in 3-D, one view a camera framed on its image,
+the errors (and a run's learning curve) as time series, the log; the time panel on ``move``.
+A run's grasp trials show their cylinder (``world/cylinder``: cyan when grasped, red when
+missed) and the grasp's result in the log; an environment has no grasp.
 
 ``trn train --rerun`` (and ``--rerun-save FILE``) starts ``python -m trn_softarm.live``
 and sends it one JSON object a line on its standard input: ``{"event": "start" | "phase" |
@@ -22,16 +30,81 @@ import argparse
 import json
 import sys
 
-import numpy as np
-
 try:
     import rerun as rr
+    import rerun.blueprint as rrb
 except ImportError as e:  # pragma: no cover - the message is the point
     raise ImportError(
         "the live view needs the rerun SDK: pip install 'trn-softarm[live]' (rerun-sdk 0.28.2)"
     ) from e
 
-RED, GREEN, GREY, BLUE = [214, 39, 40], [44, 160, 44], [60, 60, 70], [31, 119, 180]
+import numpy as np
+
+from ._native import config_json
+
+# colours readable on the viewer's dark background
+LINK = [190, 200, 215]  # the arm's links: light blue-grey
+JOINT = [240, 240, 245]  # its joints: near white
+LIGHT = [255, 90, 90]  # the arm's lights, as placed and as read: red
+TARGET = [90, 225, 120]  # the target: green
+GRASPED = [60, 200, 255]  # a cylinder grasped: cyan
+CAMERA = [90, 170, 255]  # the cameras: blue
+FRAME = [120, 130, 150]  # a camera image's frame: grey
+SERIES = {
+    "error/measured_px": [255, 140, 90],
+    "error/true_px": TARGET,
+    "curve/stage1_px": [255, 190, 70],
+    "curve/stage2_px": CAMERA,
+}
+
+# the timeline the time panel shows: one step a move, never going back (an environment's
+# sim_time starts again at each reset of a plant that does not persist)
+TIMELINE = "move"
+CAMERAS = 2
+
+
+def camera_sizes(config="realistic"):
+    """Each camera's image size (width, height; pixels) in the plant ``config`` (a built-in
+    name or a TOML file)."""
+    return [tuple(c["resolution"]) for c in json.loads(config_json(config))["cameras"][:CAMERAS]]
+
+
+def blueprint(sizes, curves=False):
+    """The view's layout for cameras of ``sizes``: the arm in 3-D beside each camera's image
+    (framed on the whole image), the errors as time series (and, with ``curves``, a run's
+    learning curve and evaluations), the log; the time panel on :data:`TIMELINE`."""
+    cameras = [
+        rrb.Spatial2DView(
+            origin=f"camera_{k}",
+            name=f"camera {k}",
+            visual_bounds=rrb.VisualBounds2D(x_range=[0, w], y_range=[0, h]),
+        )
+        for k, (w, h) in enumerate(sizes)
+    ]
+    plots = [rrb.TimeSeriesView(origin="error", name="error per move (px)")]
+    if curves:
+        trials = rrb.TimeSeriesView(origin="/", contents=["curve/**", "eval/**"], name="final error per trial (px)")
+        plots.append(trials)
+    right = rrb.Vertical(rrb.Horizontal(*cameras), *plots, rrb.TextLogView(origin="log", name="log"))
+    return rrb.Blueprint(
+        rrb.Horizontal(rrb.Spatial3DView(origin="world", name="arm"), right, column_shares=[1, 1]),
+        rrb.TimePanel(timeline=TIMELINE),
+        auto_views=False,
+    )
+
+
+def _z_to(axis):
+    """The rotation (a quaternion, xyzw) that takes the z axis, a cylinder's own axis in
+    rerun, onto the unit vector ``axis``."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(np.dot(z, a))
+    if c < -1.0 + 1e-9:  # opposite: half a turn about x
+        return rr.Quaternion(xyzw=[1.0, 0.0, 0.0, 0.0])
+    v = np.cross(z, a)
+    q = np.array([v[0], v[1], v[2], 1.0 + c])
+    return rr.Quaternion(xyzw=(q / np.linalg.norm(q)).tolist())
 
 
 def _camera_rows(v, cam):
@@ -39,49 +112,139 @@ def _camera_rows(v, cam):
     the lights not read (None) left out."""
     v = v or []
     rows = [(v[i], v[i + 1]) for i in range(0, len(v) - 1, 2)]
-    return [p for j, p in enumerate(rows) if j % 2 == cam and None not in p]
+    return [p for j, p in enumerate(rows) if j % CAMERAS == cam and None not in p]
 
 
 class LiveView:
     """A rerun recording: shown in a viewer (``spawn``, or ``connect`` to one at a gRPC
-    URL) and/or saved to ``save`` (an .rrd file)."""
+    URL) and/or saved to ``save`` (an .rrd file). ``curves``: the layout has a run's
+    learning curve."""
 
-    def __init__(self, app="trn_softarm", spawn=False, save=None, connect=None):
+    def __init__(self, app="trn_softarm", spawn=False, save=None, connect=None, curves=False):
         self.rec = rr.RecordingStream(app)
-        if save is not None:
-            self.rec.save(str(save))
-        if spawn:
-            self.rec.spawn()
-        elif connect is not None:
-            self.rec.connect_grpc(connect)
+        self._open(spawn, save, connect)
+        self.curves = curves
+        self.sizes = None
+        self.cameras_logged = False
+        self.cylinder_shown = False
+        self.series = set()
         self.move = 0
         self.trial_index = 0
-        self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        for name, color in [("curve/stage1_px", RED), ("curve/stage2_px", BLUE), ("error/measured_px", RED), ("error/true_px", GREEN)]:
-            self.rec.log(name, rr.SeriesLines(colors=[color], names=name.split("/")[1]), static=True)
+        # what comes before the first move (the run's start, its first phase) is at 0
+        self.rec.set_time("trial", sequence=0)
+        self.rec.set_time("move", sequence=0)
+        self._styles()
 
-    def _arm(self, links, lights, target_lights, cameras=None):
-        self.rec.log("world/arm/links", rr.LineStrips3D([links], colors=[GREY], radii=[8.0]))
-        self.rec.log("world/arm/joints", rr.Points3D(links, colors=[GREY], radii=[14.0]))
+    def _open(self, spawn, save, connect):
+        """The recording's sinks: the viewer and the file together (each sink call alone
+        would replace the one before)."""
+        sinks = []
+        if spawn:
+            self.rec.spawn(connect=False)
+            sinks.append(rr.GrpcSink())
+        elif connect is not None:
+            sinks.append(rr.GrpcSink(connect))
+        if save is not None:
+            sinks.append(rr.FileSink(str(save)))
+        if sinks:
+            self.rec.set_sinks(*sinks)
+
+    def _styles(self):
+        """The static part of the scene's entities: the frame of the world, the colours and
+        sizes, so that each move logs only positions."""
+        log = lambda path, arch: self.rec.log(path, arch, static=True)
+        log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+        log("world/arm/links", rr.LineStrips3D.from_fields(colors=[LINK], radii=[8.0]))
+        log("world/arm/joints", rr.Points3D.from_fields(colors=[JOINT], radii=[14.0]))
+        log("world/arm/lights", rr.Points3D.from_fields(colors=[LIGHT], radii=[10.0]))
+        log("world/target/lights", rr.Points3D.from_fields(colors=[TARGET], radii=[10.0]))
+        for cam in range(CAMERAS):
+            log(f"camera_{cam}/lights", rr.Points2D.from_fields(colors=[LIGHT], radii=[6.0]))
+            log(f"camera_{cam}/target", rr.Points2D.from_fields(colors=[TARGET], radii=[9.0]))
+
+    def _scalar(self, path, value):
+        """A point of the time series ``path``; its name (and colour, :data:`SERIES`) in
+        the plots with its first point."""
+        if path not in self.series:
+            self.series.add(path)
+            name, color = path.split("/", 1)[1], SERIES.get(path)
+            style = rr.SeriesLines(colors=[color], names=name) if color else rr.SeriesLines(names=name)
+            self.rec.log(path, style, static=True)
+        self.rec.log(path, rr.Scalars(value))
+
+    def layout(self, sizes):
+        """Sends the blueprint and the cameras' image frames for cameras of ``sizes``
+        (width, height; pixels), unless they were sent for those sizes."""
+        sizes = [tuple(s) for s in sizes]
+        if sizes == self.sizes:
+            return
+        self.sizes = sizes
+        self.rec.send_blueprint(blueprint(sizes, self.curves))
+        for k, (w, h) in enumerate(sizes):
+            self.rec.log(f"camera_{k}/image", rr.Boxes2D(mins=[0, 0], sizes=[w, h], colors=[FRAME]), static=True)
+
+    def _cameras_3d(self, positions):
+        """The cameras in the world (they do not move), once."""
+        if positions and not self.cameras_logged:
+            self.cameras_logged = True
+            self.rec.log("world/cameras", rr.Points3D(positions, colors=[CAMERA], radii=[20.0]), static=True)
+
+    def _next_move(self, time_s):
+        self.move += 1
+        self.rec.set_time("move", sequence=self.move)
+        if time_s is not None:
+            self.rec.set_time("sim_time", duration=float(time_s))
+
+    def _cylinder(self, c, grasp):
+        """A grasp trial's cylinder (``world/cylinder``: cyan when the grasp succeeded, red
+        when not, the target's colour before it is scored), cleared at a trial without one;
+        the grasp's result in the log."""
+        if c is None:
+            if self.cylinder_shown:
+                self.cylinder_shown = False
+                self.rec.log("world/cylinder", rr.Clear(recursive=False))
+            return
+        self.cylinder_shown = True
+        color = TARGET if grasp is None else (GRASPED if grasp["success"] else LIGHT)
+        self.rec.log(
+            "world/cylinder",
+            rr.Cylinders3D(
+                lengths=[c["length"]],
+                radii=[c["radius"]],
+                centers=[c["centre"]],
+                quaternions=[_z_to(c["axis"])],
+                colors=[color],
+            ),
+        )
+        if grasp is not None:
+            verdict = "grasped" if grasp["success"] else "missed"
+            text = f"grasp {verdict}: {grasp['distance_mm']:.1f} mm from the centre, {grasp['perpendicular_error_deg']:.1f} deg off perpendicular"
+            self.rec.log("log", rr.TextLog(text, level="INFO" if grasp["success"] else "WARN"))
+
+    def _arm(self, links, lights, target_lights):
+        self.rec.log("world/arm/links", rr.LineStrips3D([links]))
+        self.rec.log("world/arm/joints", rr.Points3D(links))
         if lights:
-            self.rec.log("world/arm/lights", rr.Points3D(lights, colors=[RED], radii=[10.0]))
+            self.rec.log("world/arm/lights", rr.Points3D(lights))
         if target_lights:
-            self.rec.log("world/target/lights", rr.Points3D(target_lights, colors=[GREEN], radii=[10.0]))
-        if cameras is not None:
-            self.rec.log("world/cameras", rr.Points3D(cameras, colors=[BLUE], radii=[20.0]), static=True)
+            self.rec.log("world/target/lights", rr.Points3D(target_lights))
 
     def _cameras(self, seen, target):
-        for cam in range(2):
-            self.rec.log(f"camera_{cam}/lights", rr.Points2D(_camera_rows(seen, cam), colors=[RED], radii=[6.0]))
-            self.rec.log(f"camera_{cam}/target", rr.Points2D(_camera_rows(target, cam), colors=[GREEN], radii=[9.0]))
+        for cam in range(CAMERAS):
+            self.rec.log(f"camera_{cam}/lights", rr.Points2D(_camera_rows(seen, cam)))
+            self.rec.log(f"camera_{cam}/target", rr.Points2D(_camera_rows(target, cam)))
 
-    def event(self, e):
-        """One event of a run (see the module)."""
+    def event(self, e, config="realistic"):
+        """One event of a run (see the module). The cameras' image sizes come with the
+        start; a stream without them is laid out for the plant ``config``'s."""
         kind = e.get("event")
+        if kind != "start" and self.sizes is None:
+            self.layout(camera_sizes(config))
         if kind == "start":
             self.rec.log("log", rr.TextLog(f"run: {e.get('title', '')}, about {e.get('trials')} trials"))
-            if e.get("cameras"):
-                self.rec.log("world/cameras", rr.Points3D(e["cameras"], colors=[BLUE], radii=[20.0]), static=True)
+            self._cameras_3d(e.get("cameras"))
+            if e.get("image_sizes"):
+                self.layout(e["image_sizes"])
         elif kind in ("phase", "message"):
             self.rec.log("log", rr.TextLog(e.get("name") or e.get("text") or ""))
         elif kind == "trial":
@@ -90,45 +253,45 @@ class LiveView:
             self.rec.log("log", rr.TextLog("run finished"))
 
     def trial(self, e):
-        """A trial: each move's arm, lights and error, then its point of the learning curve."""
+        """A trial: each move's arm, lights and error, then its point of the learning curve;
+        a grasp's cylinder, coloured by how the grasp went."""
         self.trial_index += 1
         self.rec.set_time("trial", sequence=self.trial_index)
+        self._cylinder(e.get("cylinder"), e.get("grasp"))
         for m in e.get("moves", []):
-            self.move += 1
-            self.rec.set_time("move", sequence=self.move)
-            if m.get("time_s") is not None:
-                self.rec.set_time("sim_time", duration=m["time_s"])
+            self._next_move(m.get("time_s"))
             self._arm(m["links"], m.get("lights"), e.get("target_lights"))
             self._cameras(m.get("seen"), m.get("target"))
             for k in ("measured_px", "true_px"):
                 if m.get(k) is not None:
-                    self.rec.log(f"error/{k}", rr.Scalars(m[k]))
+                    self._scalar(f"error/{k}", m[k])
         prefix = "curve" if e.get("phase") == "training" else f"eval/{e.get('phase')}"
         for stage in ("stage1", "stage2"):
             v = e.get(f"{stage}_final_px")
             if v is not None:
-                self.rec.log(f"{prefix}/{stage}_px", rr.Scalars(v))
+                self._scalar(f"{prefix}/{stage}_px", v)
         if e.get("failure"):
             self.rec.log("log", rr.TextLog(f"trial {e.get('trial')}: {e['failure']}", level="WARN"))
 
     def env_step(self, env, obs, info, reward):
         """An environment's reset (``reward`` None) or step."""
+        if self.sizes is None:
+            self.layout(camera_sizes(env.config))
         if reward is None:
             self.trial_index += 1
             self.rec.set_time("trial", sequence=self.trial_index)
-        self.move += 1
-        self.rec.set_time("move", sequence=self.move)
-        self.rec.set_time("sim_time", duration=float(info["time_s"]))
+        self._next_move(info["time_s"])
         g = env.geometry()
-        self._arm(g["links"].tolist(), g["lights"].tolist(), g["target_lights"].tolist(), g["cameras"].tolist())
+        self._cameras_3d(g["cameras"].tolist())
+        self._arm(g["links"].tolist(), g["lights"].tolist(), g["target_lights"].tolist())
         status = np.asarray(obs["status"])
         seen = [None if s else float(c) for s, row in zip(status, obs["lights"]) for c in row]
         target = [float(c) for row in obs["target"] for c in row]
         self._cameras(seen, target)
         if info.get("error_px") is not None:
-            self.rec.log("error/measured_px", rr.Scalars(info["error_px"]))
+            self._scalar("error/measured_px", info["error_px"])
         if info.get("error_true_px") is not None:
-            self.rec.log("error/true_px", rr.Scalars(info["error_true_px"]))
+            self._scalar("error/true_px", info["error_true_px"])
 
     def close(self):
         self.rec.flush()
@@ -143,13 +306,18 @@ def main(argv=None):
     ap.add_argument("--connect", metavar="URL", help="stream to a running viewer (rerun+http://127.0.0.1:9876/proxy)")
     ap.add_argument("--save", metavar="FILE", help="save the recording (.rrd)")
     ap.add_argument("--app", default="trn", help="the recording's application id")
+    ap.add_argument(
+        "--config",
+        default="realistic",
+        help="the plant (a built-in name or a TOML file) whose cameras' image sizes lay out a stream whose start does not give them",
+    )
     a = ap.parse_args(argv)
     if not (a.spawn or a.connect or a.save):
         ap.error("nothing to do: give --spawn, --connect or --save")
-    view = LiveView(a.app, spawn=a.spawn, save=a.save, connect=a.connect)
+    view = LiveView(a.app, spawn=a.spawn, save=a.save, connect=a.connect, curves=True)
     for line in sys.stdin:
         if line.strip():
-            view.event(json.loads(line))
+            view.event(json.loads(line), a.config)
     view.close()
     return 0
 
