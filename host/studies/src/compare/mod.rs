@@ -145,6 +145,10 @@ pub struct Summary {
     pub fine_moves_stop_rule: Spread,
     /// Simulated seconds per target with the stop rule.
     pub sim_s_per_target_stop_rule: Spread,
+    /// Combined noise-free error where the stop rule ended the trials: what the fine moves
+    /// with the stop rule bought (a stop rule that stops earlier and farther off shows here).
+    #[serde(default = "Spread::none")]
+    pub final_true_px_stop_rule: Spread,
     /// Grasp success (fraction; the worst seed is the lowest).
     pub grasp_success: Spread,
     /// The measured combined error after the budget over every held-out target of every
@@ -211,6 +215,7 @@ impl Row {
             moves_to_2px: higher(&|s| s.moves_to_2px),
             fine_moves_stop_rule: higher(&|s| s.fine_moves_stop_rule),
             sim_s_per_target_stop_rule: higher(&|s| s.sim_s_per_target_stop_rule),
+            final_true_px_stop_rule: higher(&|s| s.final_true_px_stop_rule),
             grasp_success: Spread::of(&col(&|s| s.grasp_success), Worse::Lower),
             measured_after_budget_by_target_px: Tail::of(&pooled),
             measured_p95_over_floor: higher(&|s| s.measured_p95_over_floor),

@@ -31,6 +31,11 @@ pub struct Spread {
 }
 
 impl Spread {
+    /// No value (a figure a report does not have).
+    pub fn none() -> Spread {
+        Spread::of(&[], Worse::Higher)
+    }
+
     /// The spread of the finite values of `x`.
     pub fn of(x: &[f32], worse: Worse) -> Spread {
         let v: Vec<f32> = x.iter().copied().filter(|v| v.is_finite()).collect();
