@@ -90,10 +90,14 @@ def blueprint_of(path):
 
 
 def assert_on_the_timelines(rec, entities):
-    """Each of ``entities`` has rows, each row on ``trial`` and ``move``."""
+    """Each of ``entities`` has rows, each row on ``trial`` and ``move``: the entities logged
+    one call a row (the log, a trial's figures) by their log tick, those sent as a move's
+    columns (which have no log tick) by ``sim_time``, which every move here has."""
     assert {"trial", "move", "sim_time"} <= {c.name for c in rec.schema().index_columns()}
     for e in entities:
         table = rec.view(index="log_tick", contents=e).select().read_all()
+        if table.num_rows == 0:
+            table = rec.view(index="sim_time", contents=e).select().read_all()
         assert table.num_rows > 0, e
         for timeline in ("trial", "move"):
             assert table.column(timeline).null_count == 0, (e, timeline)

@@ -6,7 +6,7 @@
 //! output is (`trn_bench::output`): checked before the run, into a temporary file that
 //! becomes FILE when the viewer's process ended well.
 
-use std::io::{BufWriter, Write};
+use std::io::{BufRead, BufReader, BufWriter, Read, Write};
 use std::path::Path;
 use std::process::{Child, ChildStdin, Command, Stdio};
 
@@ -27,6 +27,12 @@ fn python() -> String {
 
 fn usage(m: String) -> CliError {
     CliError::Lab(LabError::Usage(m))
+}
+
+/// Copies `from` to `to` on a thread of its own until `from` ends (a child's output pipe,
+/// which must never fill while the run goes on).
+fn copy_in_background(mut from: impl Read + Send + 'static, mut to: impl Write + Send + 'static) {
+    std::thread::spawn(move || std::io::copy(&mut from, &mut to));
 }
 
 /// The run's events on their way to the live view's process.
@@ -80,24 +86,9 @@ impl LiveStream {
             check_path(p, Kind::Recording)?;
         }
         let py = python();
-        let probe = Command::new(&py)
-            .args(["-c", "import trn_softarm.live"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .output();
-        match probe {
-            Ok(o) if o.status.success() => {}
-            Ok(o) => {
-                return Err(usage(format!(
-                    "--rerun/--rerun-save need the live view in {py}: pip install './python[live]' ({})",
-                    String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or("")
-                )))
-            }
-            Err(e) => return Err(usage(format!("--rerun/--rerun-save: cannot run {py}: {e}"))),
-        }
         let recording = save.map(PendingFile::create).transpose()?;
         let mut cmd = Command::new(&py);
-        cmd.args(["-m", "trn_softarm.live", "--app", "trn"]);
+        cmd.args(["-m", "trn_softarm.live", "--app", "trn", "--ready"]);
         if spawn {
             cmd.arg("--spawn");
         }
@@ -110,8 +101,34 @@ impl LiveStream {
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
         let mut child = cmd
             .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
             .spawn()
-            .map_err(|e| usage(format!("cannot start {py} -m trn_softarm.live: {e}")))?;
+            .map_err(|e| usage(format!("--rerun/--rerun-save: cannot run {py}: {e}")))?;
+        // the run starts once the live view said it is ready (its imports done, its sinks
+        // open), so that a Python without it is refused before anything runs; one import,
+        // not a probe and then the view's own
+        let (Some(out), Some(mut err)) = (child.stdout.take(), child.stderr.take()) else {
+            let _ = child.kill();
+            return Err(usage(format!(
+                "--rerun/--rerun-save: {py} has no output pipes"
+            )));
+        };
+        let mut out = BufReader::new(out);
+        let mut line = String::new();
+        let ready = out.read_line(&mut line).is_ok() && line.trim_end() == "ready";
+        if !ready {
+            let mut text = String::new();
+            let _ = err.read_to_string(&mut text);
+            let _ = child.wait();
+            return Err(usage(format!(
+                "--rerun/--rerun-save need the live view in {py}: pip install './python[live]' ({})",
+                text.lines().last().unwrap_or("it did not start")
+            )));
+        }
+        // what the live view prints later goes where this process's output goes
+        copy_in_background(out, std::io::stdout());
+        copy_in_background(err, std::io::stderr());
         let stdin = child.stdin.take().map(BufWriter::new);
         Ok(LiveStream {
             child,

@@ -29,6 +29,7 @@ and sends it one JSON object a line on its standard input: ``{"event": "start" |
 import argparse
 import json
 import sys
+import time
 
 try:
     import rerun as rr
@@ -56,6 +57,10 @@ SERIES = {
     "curve/stage1_px": [255, 190, 70],
     "curve/stage2_px": CAMERA,
 }
+
+# a batch of moves is sent once this many entity rows wait or this many seconds passed
+BATCH_ROWS = 4096
+BATCH_S = 0.2
 
 # the timeline the time panel shows: one step a move, never going back (an environment's
 # sim_time starts again at each reset of a plant that does not persist)
@@ -115,6 +120,57 @@ def _camera_rows(v, cam):
     return [p for j, p in enumerate(rows) if j % CAMERAS == cam and None not in p]
 
 
+class _Batch:
+    """Each move's entities gathered and sent to the recording as columns (``send_columns``)
+    instead of one log call an entity a move: rerun's cost a call, not the data, is most of
+    a live view's time. Rows are kept per entity with their ``trial``, ``move`` and
+    ``sim_time`` (``None`` when a move has none) and sent by :meth:`flush`: when
+    :data:`BATCH_ROWS` rows wait or :data:`BATCH_S` seconds passed, and at every phase, the
+    end and the close, so a viewer is never more than that behind."""
+
+    def __init__(self, rec):
+        self.rec = rec
+        self.rows = {}  # entity -> (kind, [(trial, move, sim_time, value)])
+        self.count = 0
+        self.sent = time.monotonic()
+
+    def add(self, entity, kind, trial, move, sim_time, value):
+        self.rows.setdefault(entity, (kind, []))[1].append((trial, move, sim_time, value))
+        self.count += 1
+        if self.count >= BATCH_ROWS or time.monotonic() - self.sent >= BATCH_S:
+            self.flush()
+
+    def flush(self):
+        for entity, (kind, rows) in self.rows.items():
+            # rows with and without a simulated time go apart (a column has every row's)
+            for timed in (True, False):
+                part = [r for r in rows if (r[2] is not None) == timed]
+                if part:
+                    self._send(entity, kind, part, timed)
+        self.rows.clear()
+        self.count = 0
+        self.sent = time.monotonic()
+
+    def _send(self, entity, kind, rows, timed):
+        indexes = [
+            rr.TimeColumn("trial", sequence=[r[0] for r in rows]),
+            rr.TimeColumn("move", sequence=[r[1] for r in rows]),
+        ]
+        if timed:
+            indexes.append(rr.TimeColumn("sim_time", duration=[r[2] for r in rows]))
+        values = [r[3] for r in rows]
+        if kind == "scalar":
+            columns = rr.Scalars.columns(scalars=values)
+        elif kind == "strip":
+            columns = rr.LineStrips3D.columns(strips=values)
+        else:
+            archetype = rr.Points3D if kind == "points3d" else rr.Points2D
+            flat = [p for v in values for p in v]
+            positions = np.asarray(flat, dtype=np.float32).reshape(-1, 3 if kind == "points3d" else 2)
+            columns = archetype.columns(positions=positions).partition([len(v) for v in values])
+        self.rec.send_columns(entity, indexes=indexes, columns=columns)
+
+
 class LiveView:
     """A rerun recording: shown in a viewer (``spawn``, or ``connect`` to one at a gRPC
     URL) and/or saved to ``save`` (an .rrd file). ``curves``: the layout has a run's
@@ -130,6 +186,8 @@ class LiveView:
         self.series = set()
         self.move = 0
         self.trial_index = 0
+        self.sim_time = None
+        self.batch = _Batch(self.rec)
         # what comes before the first move (the run's start, its first phase) is at 0
         self.rec.set_time("trial", sequence=0)
         self.rec.set_time("move", sequence=0)
@@ -162,15 +220,26 @@ class LiveView:
             log(f"camera_{cam}/lights", rr.Points2D.from_fields(colors=[LIGHT], radii=[6.0]))
             log(f"camera_{cam}/target", rr.Points2D.from_fields(colors=[TARGET], radii=[9.0]))
 
-    def _scalar(self, path, value):
-        """A point of the time series ``path``; its name (and colour, :data:`SERIES`) in
-        the plots with its first point."""
+    def _series(self, path):
+        """The time series ``path``'s name (and colour, :data:`SERIES`) in the plots, once."""
         if path not in self.series:
             self.series.add(path)
             name, color = path.split("/", 1)[1], SERIES.get(path)
             style = rr.SeriesLines(colors=[color], names=name) if color else rr.SeriesLines(names=name)
             self.rec.log(path, style, static=True)
+
+    def _scalar(self, path, value):
+        """A point of the time series ``path`` at the current trial (a trial's figure)."""
+        self._series(path)
         self.rec.log(path, rr.Scalars(value))
+
+    def _move_row(self, entity, kind, value):
+        """One of the current move's entities, into the batch."""
+        self.batch.add(entity, kind, self.trial_index, self.move, self.sim_time, value)
+
+    def flush(self):
+        """Sends the moves gathered so far."""
+        self.batch.flush()
 
     def layout(self, sizes):
         """Sends the blueprint and the cameras' image frames for cameras of ``sizes``
@@ -192,8 +261,9 @@ class LiveView:
     def _next_move(self, time_s):
         self.move += 1
         self.rec.set_time("move", sequence=self.move)
-        if time_s is not None:
-            self.rec.set_time("sim_time", duration=float(time_s))
+        self.sim_time = None if time_s is None else float(time_s)
+        if self.sim_time is not None:
+            self.rec.set_time("sim_time", duration=self.sim_time)
 
     def _cylinder(self, c, grasp):
         """A grasp trial's cylinder (``world/cylinder``: cyan when the grasp succeeded, red
@@ -222,17 +292,23 @@ class LiveView:
             self.rec.log("log", rr.TextLog(text, level="INFO" if grasp["success"] else "WARN"))
 
     def _arm(self, links, lights, target_lights):
-        self.rec.log("world/arm/links", rr.LineStrips3D([links]))
-        self.rec.log("world/arm/joints", rr.Points3D(links))
+        self._move_row("world/arm/links", "strip", links)
+        self._move_row("world/arm/joints", "points3d", links)
         if lights:
-            self.rec.log("world/arm/lights", rr.Points3D(lights))
+            self._move_row("world/arm/lights", "points3d", lights)
         if target_lights:
-            self.rec.log("world/target/lights", rr.Points3D(target_lights))
+            self._move_row("world/target/lights", "points3d", target_lights)
 
     def _cameras(self, seen, target):
         for cam in range(CAMERAS):
-            self.rec.log(f"camera_{cam}/lights", rr.Points2D(_camera_rows(seen, cam)))
-            self.rec.log(f"camera_{cam}/target", rr.Points2D(_camera_rows(target, cam)))
+            self._move_row(f"camera_{cam}/lights", "points2d", _camera_rows(seen, cam))
+            self._move_row(f"camera_{cam}/target", "points2d", _camera_rows(target, cam))
+
+    def _errors(self, measured, true):
+        for path, v in (("error/measured_px", measured), ("error/true_px", true)):
+            if v is not None:
+                self._series(path)
+                self._move_row(path, "scalar", float(v))
 
     def event(self, e, config="realistic"):
         """One event of a run (see the module). The cameras' image sizes come with the
@@ -246,10 +322,12 @@ class LiveView:
             if e.get("image_sizes"):
                 self.layout(e["image_sizes"])
         elif kind in ("phase", "message"):
+            self.flush()
             self.rec.log("log", rr.TextLog(e.get("name") or e.get("text") or ""))
         elif kind == "trial":
             self.trial(e)
         elif kind == "finish":
+            self.flush()
             self.rec.log("log", rr.TextLog("run finished"))
 
     def trial(self, e):
@@ -262,9 +340,7 @@ class LiveView:
             self._next_move(m.get("time_s"))
             self._arm(m["links"], m.get("lights"), e.get("target_lights"))
             self._cameras(m.get("seen"), m.get("target"))
-            for k in ("measured_px", "true_px"):
-                if m.get(k) is not None:
-                    self._scalar(f"error/{k}", m[k])
+            self._errors(m.get("measured_px"), m.get("true_px"))
         prefix = "curve" if e.get("phase") == "training" else f"eval/{e.get('phase')}"
         for stage in ("stage1", "stage2"):
             v = e.get(f"{stage}_final_px")
@@ -288,12 +364,10 @@ class LiveView:
         seen = [None if s else float(c) for s, row in zip(status, obs["lights"]) for c in row]
         target = [float(c) for row in obs["target"] for c in row]
         self._cameras(seen, target)
-        if info.get("error_px") is not None:
-            self._scalar("error/measured_px", info["error_px"])
-        if info.get("error_true_px") is not None:
-            self._scalar("error/true_px", info["error_true_px"])
+        self._errors(info.get("error_px"), info.get("error_true_px"))
 
     def close(self):
+        self.flush()
         self.rec.flush()
         self.rec.disconnect()
 
@@ -311,10 +385,13 @@ def main(argv=None):
         default="realistic",
         help="the plant (a built-in name or a TOML file) whose cameras' image sizes lay out a stream whose start does not give them",
     )
+    ap.add_argument("--ready", action="store_true", help="print a line 'ready' once the view is open")
     a = ap.parse_args(argv)
     if not (a.spawn or a.connect or a.save):
         ap.error("nothing to do: give --spawn, --connect or --save")
     view = LiveView(a.app, spawn=a.spawn, save=a.save, connect=a.connect, curves=True)
+    if a.ready:
+        print("ready", flush=True)
     for line in sys.stdin:
         if line.strip():
             view.event(json.loads(line), a.config)
