@@ -36,10 +36,10 @@ LIGHTS = [[655, 93, 80], [572, 62, 33]]
 CYLINDER = {"centre": [600.0, 80.0, 40.0], "axis": [0.0, 1.0, 0.0], "radius": 20.0, "length": 120.0}
 
 
-def run_events(image_sizes=None):
+def run_events(cameras=None):
     """A short run's events, shaped as host/cli/src/live.rs sends them: two training trials
     (stage 1: four rows a reading, one light not read; stage 2: two rows), an evaluation and
-    a grasp; the start gives the cameras' ``image_sizes`` when given."""
+    a grasp; the start gives the ``cameras`` (their configuration) when given."""
 
     def move(t, seen, err):
         return {"time_s": t, "links": LINKS, "lights": LIGHTS, "seen": seen, "target": [500.0] * len(seen),
@@ -48,8 +48,8 @@ def run_events(image_sizes=None):
     stage1 = [510.0, 520.0, None, None, 530.0, 540.0, 550.0, 560.0]
     start = {"event": "start", "trials": 4, "title": "trn train",
              "cameras": [[2100.0, -650.0, 650.0], [2100.0, 650.0, 650.0]]}
-    if image_sizes is not None:
-        start["image_sizes"] = image_sizes
+    if cameras is not None:
+        start["camera_configs"] = cameras
     return [
         start,
         {"event": "phase", "name": "training"},
@@ -111,24 +111,25 @@ def test_a_runs_recording_has_its_blueprint_and_timelines(tmp_path, monkeypatch)
 
     rec = load_recording(str(path))
     entities = {str(c.entity_path) for c in rec.schema().component_columns()}
-    for e in ("/world/arm/links", "/world/cameras", "/camera_0/image", "/camera_1/lights", "/curve/stage1_px",
+    for e in ("/world/arm/links", "/world/cameras", "/world/camera_0", "/world/camera_0/image",
+              "/world/camera_1/lights", "/curve/stage1_px",
               "/eval/evaluation/stage1_px", "/log"):
         assert e in entities, sorted(entities)
     assert_on_the_timelines(
-        rec, ["/log", "/world/arm/links", "/camera_0/lights", "/error/measured_px", "/curve/stage2_px"]
+        rec, ["/log", "/world/arm/links", "/world/camera_0/lights", "/error/measured_px", "/curve/stage2_px"]
     )
     moves = rec.view(index="sim_time", contents="/error/measured_px").select().read_all()
     assert moves.num_rows == 5
     # each camera's rows of a reading (stage 1: p and q, stage 2: the centre), the light not
     # read (camera 1's p in stage 1) left out; the colour is the entity's, logged once
     for cam, counts in [(0, [2, 2, 1, 2, 1]), (1, [1, 1, 1, 1, 1])]:
-        lights = rec.view(index="move", contents=f"/camera_{cam}/lights").select().read_all()
-        assert [len(p) for p in lights.column(f"/camera_{cam}/lights:Points2D:positions").to_pylist()] == counts
+        lights = rec.view(index="move", contents=f"/world/camera_{cam}/lights").select().read_all()
+        assert [len(p) for p in lights.column(f"/world/camera_{cam}/lights:Points2D:positions").to_pylist()] == counts
     r, g, b = live.LIGHT
-    assert lights.column("/camera_1/lights:Points2D:colors").to_pylist()[0] == [r << 24 | g << 16 | b << 8 | 255]
+    assert lights.column("/world/camera_1/lights:Points2D:colors").to_pylist()[0] == [r << 24 | g << 16 | b << 8 | 255]
 
     views, bounds, timeline = blueprint_of(path)
-    assert {("[3D]", "[world]"), ("[2D]", "[camera_0]"), ("[2D]", "[camera_1]"), ("[TimeSeries]", "[error]"),
+    assert {("[3D]", "[world]"), ("[2D]", "[world/camera_0]"), ("[2D]", "[world/camera_1]"), ("[TimeSeries]", "[error]"),
             ("[TextLog]", "[log]")} <= views, views
     assert bounds == ["[{x_range: [0.0, 1024.0], y_range: [0.0, 768.0]}]"] * 2, bounds
     assert timeline == ["[move]"]
@@ -146,14 +147,30 @@ def test_a_runs_recording_has_its_blueprint_and_timelines(tmp_path, monkeypatch)
 
 
 @needs_rerun
-def test_a_run_is_laid_out_for_the_image_sizes_its_start_gives(tmp_path, monkeypatch):
+def test_a_run_is_laid_out_for_the_cameras_its_start_gives(tmp_path, monkeypatch):
     path = tmp_path / "run.rrd"
-    events = run_events(image_sizes=[[640, 480], [800, 600]])
+    cameras = [
+        {"resolution": [640, 480], "focal_px": 500.0, "position_mm": [2000.0, 0.0, 500.0], "look_at_mm": [0.0, 0.0, 500.0]},
+        {"resolution": [800, 600], "focal_px": 700.0, "position_mm": [0.0, 0.0, 3000.0], "look_at_mm": [0.0, 0.0, 0.0]},
+    ]
+    events = run_events(cameras)
     monkeypatch.setattr(sys, "stdin", io.StringIO("".join(json.dumps(e) + "\n" for e in events)))
     assert live.main(["--save", str(path)]) == 0
     _, bounds, _ = blueprint_of(path)
     assert sorted(bounds) == ["[{x_range: [0.0, 640.0], y_range: [0.0, 480.0]}]",
                       "[{x_range: [0.0, 800.0], y_range: [0.0, 600.0]}]"], bounds
+    # each camera a pinhole of its focal length and image, placed and turned as the plant
+    # places it: camera 0 looks along -x from x = 2 m (its image x towards +y), camera 1
+    # straight down from 3 m (the fallback: its image x towards -y)
+    rec = load_recording(str(path))
+    for k, f, (w, h), axes, pos in [(0, 500.0, (640, 480), [[0, 1, 0], [0, 0, -1], [-1, 0, 0]], [2000, 0, 500]),
+                                    (1, 700.0, (800, 600), [[0, -1, 0], [-1, 0, 0], [0, 0, -1]], [0, 0, 3000])]:
+        cam = rec.view(index=None, contents=f"/world/camera_{k}").select().read_all().to_pydict()
+        assert np.allclose(cam[f"/world/camera_{k}:Pinhole:image_from_camera"][0], [f, 0, 0, 0, f, 0, w / 2, h / 2, 1])
+        assert cam[f"/world/camera_{k}:Pinhole:resolution"][0] == [[w, h]]
+        assert np.allclose(cam[f"/world/camera_{k}:Transform3D:translation"][0], pos)
+        # the rotation's columns (column-major) are the image's x, y and the optical axis
+        assert np.allclose(np.reshape(cam[f"/world/camera_{k}:Transform3D:mat3x3"][0], (3, 3)), axes, atol=1e-3)
 
 
 @needs_rerun
@@ -169,11 +186,11 @@ def test_an_environments_recording_has_its_blueprint_and_timelines(tmp_path):
     view.close()
 
     rec = load_recording(str(path))
-    assert_on_the_timelines(rec, ["/world/arm/joints", "/world/target/lights", "/camera_1/target", "/error/true_px"])
+    assert_on_the_timelines(rec, ["/world/arm/joints", "/world/target/lights", "/world/camera_1/target", "/error/true_px"])
     times = rec.view(index="sim_time", contents="/world/arm/joints").select().read_all()
     assert times.num_rows == 4
     w, h = env._arm.image_size
     views, bounds, timeline = blueprint_of(path)
-    assert ("[2D]", "[camera_1]") in views and ("[TimeSeries]", "[error]") in views, views
+    assert ("[2D]", "[world/camera_1]") in views and ("[TimeSeries]", "[error]") in views, views
     assert bounds == [f"[{{x_range: [0.0, {w:.1f}], y_range: [0.0, {h:.1f}]}}]"] * 2, bounds
     assert timeline == ["[move]"]

@@ -255,13 +255,12 @@ impl LiveStream {
 impl Observer for LiveStream {
     fn start(&mut self, trials: u64) {
         let cams: Vec<[f64; 3]> = self.cfg.cameras.iter().map(|c| c.position_mm).collect();
-        let sizes: Vec<_> = self.cfg.cameras.iter().map(|c| c.resolution).collect();
         let title = std::env::args().collect::<Vec<_>>().join(" ");
         self.send(json!({
             "event": "start",
             "trials": trials,
             "cameras": cams,
-            "image_sizes": sizes,
+            "camera_configs": self.cfg.cameras,
             "title": title,
         }));
     }

@@ -8,8 +8,10 @@ What it shows, everything that changes on the timelines ``trial`` and ``move`` (
   gripper centre) after each move, ``world/arm/lights``: its lights p and q;
   ``world/target/lights``: the target's; ``world/cameras``: the cameras (mm, base frame:
   x forward, y left, z up);
-- ``camera_0/…``, ``camera_1/…``: the lights as read and the target in each image (pixels),
-  ``camera_k/image``: the image's frame;
+- ``world/camera_0``, ``world/camera_1``: each camera as a pinhole (its pose, focal length
+  and image size, from the plant's configuration), and under it ``…/lights`` and
+  ``…/target``: the lights as read and the target in its image (pixels; the 3-D view shows
+  them on the camera's image plane), ``…/image``: the image's frame;
 - ``error/measured_px`` and ``error/true_px``: each move's error;
 - ``curve/stage1_px``, ``curve/stage2_px``: the learning curve (each training trial's final
   error), ``eval/<phase>/…`` the other phases' trials;
@@ -66,12 +68,28 @@ BATCH_S = 0.2
 # sim_time starts again at each reset of a plant that does not persist)
 TIMELINE = "move"
 CAMERAS = 2
+# how far from its centre a camera's image is drawn in the 3-D view (mm)
+PINHOLE_MM = 250.0
 
 
-def camera_sizes(config="realistic"):
-    """Each camera's image size (width, height; pixels) in the plant ``config`` (a built-in
-    name or a TOML file)."""
-    return [tuple(c["resolution"]) for c in json.loads(config_json(config))["cameras"][:CAMERAS]]
+def camera_configs(config="realistic"):
+    """The cameras of the plant ``config`` (a built-in name or a TOML file): each one's
+    ``resolution``, ``focal_px``, ``position_mm`` and ``look_at_mm`` as the plant's
+    configuration gives them."""
+    return json.loads(config_json(config))["cameras"][:CAMERAS]
+
+
+def camera_pose(c):
+    """A camera's rotation (columns: the image's x, its y and the optical axis, in the base
+    frame) and position, as the plant builds them: the optical axis towards ``look_at_mm``,
+    the image's x level (the axis crossed with up), y down."""
+    pos = np.asarray(c["position_mm"], dtype=float)
+    forward = np.asarray(c["look_at_mm"], dtype=float) - pos
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right = right / np.linalg.norm(right) if np.linalg.norm(right) > 1e-9 else np.array([0.0, -1.0, 0.0])
+    down = np.cross(forward, right)
+    return np.column_stack([right, down, forward]), pos
 
 
 def blueprint(sizes, curves=False):
@@ -80,7 +98,7 @@ def blueprint(sizes, curves=False):
     learning curve and evaluations), the log; the time panel on :data:`TIMELINE`."""
     cameras = [
         rrb.Spatial2DView(
-            origin=f"camera_{k}",
+            origin=f"world/camera_{k}",
             name=f"camera {k}",
             visual_bounds=rrb.VisualBounds2D(x_range=[0, w], y_range=[0, h]),
         )
@@ -180,7 +198,7 @@ class LiveView:
         self.rec = rr.RecordingStream(app)
         self._open(spawn, save, connect)
         self.curves = curves
-        self.sizes = None
+        self.cameras = None
         self.cameras_logged = False
         self.cylinder_shown = False
         self.series = set()
@@ -217,8 +235,8 @@ class LiveView:
         log("world/arm/lights", rr.Points3D.from_fields(colors=[LIGHT], radii=[10.0]))
         log("world/target/lights", rr.Points3D.from_fields(colors=[TARGET], radii=[10.0]))
         for cam in range(CAMERAS):
-            log(f"camera_{cam}/lights", rr.Points2D.from_fields(colors=[LIGHT], radii=[6.0]))
-            log(f"camera_{cam}/target", rr.Points2D.from_fields(colors=[TARGET], radii=[9.0]))
+            log(f"world/camera_{cam}/lights", rr.Points2D.from_fields(colors=[LIGHT], radii=[6.0]))
+            log(f"world/camera_{cam}/target", rr.Points2D.from_fields(colors=[TARGET], radii=[9.0]))
 
     def _series(self, path):
         """The time series ``path``'s name (and colour, :data:`SERIES`) in the plots, once."""
@@ -241,16 +259,30 @@ class LiveView:
         """Sends the moves gathered so far."""
         self.batch.flush()
 
-    def layout(self, sizes):
-        """Sends the blueprint and the cameras' image frames for cameras of ``sizes``
-        (width, height; pixels), unless they were sent for those sizes."""
-        sizes = [tuple(s) for s in sizes]
-        if sizes == self.sizes:
+    def layout(self, cameras):
+        """Sends the blueprint and each camera as a pinhole in the world (``world/camera_k``:
+        its pose, focal length and image, the frame of its image at ``world/camera_k/image``)
+        for ``cameras`` (as :func:`camera_configs` gives them), unless they were sent."""
+        cameras = list(cameras)
+        if cameras == self.cameras:
             return
-        self.sizes = sizes
+        self.cameras = cameras
+        sizes = [tuple(c["resolution"]) for c in cameras]
         self.rec.send_blueprint(blueprint(sizes, self.curves))
-        for k, (w, h) in enumerate(sizes):
-            self.rec.log(f"camera_{k}/image", rr.Boxes2D(mins=[0, 0], sizes=[w, h], colors=[FRAME]), static=True)
+        for k, c in enumerate(cameras):
+            (w, h), (rotation, position) = sizes[k], camera_pose(c)
+            path = f"world/camera_{k}"
+            self.rec.log(path, rr.Transform3D(translation=position, mat3x3=rotation), static=True)
+            pinhole = rr.Pinhole(
+                focal_length=float(c["focal_px"]),
+                width=w,
+                height=h,
+                camera_xyz=rr.ViewCoordinates.RDF,
+                image_plane_distance=PINHOLE_MM,
+                color=CAMERA,
+            )
+            self.rec.log(path, pinhole, static=True)
+            self.rec.log(f"{path}/image", rr.Boxes2D(mins=[0, 0], sizes=[w, h], colors=[FRAME]), static=True)
 
     def _cameras_3d(self, positions):
         """The cameras in the world (they do not move), once."""
@@ -301,8 +333,8 @@ class LiveView:
 
     def _cameras(self, seen, target):
         for cam in range(CAMERAS):
-            self._move_row(f"camera_{cam}/lights", "points2d", _camera_rows(seen, cam))
-            self._move_row(f"camera_{cam}/target", "points2d", _camera_rows(target, cam))
+            self._move_row(f"world/camera_{cam}/lights", "points2d", _camera_rows(seen, cam))
+            self._move_row(f"world/camera_{cam}/target", "points2d", _camera_rows(target, cam))
 
     def _errors(self, measured, true):
         for path, v in (("error/measured_px", measured), ("error/true_px", true)):
@@ -311,16 +343,16 @@ class LiveView:
                 self._move_row(path, "scalar", float(v))
 
     def event(self, e, config="realistic"):
-        """One event of a run (see the module). The cameras' image sizes come with the
-        start; a stream without them is laid out for the plant ``config``'s."""
+        """One event of a run (see the module). The cameras come with the start; a stream
+        without them is laid out for the plant ``config``'s."""
         kind = e.get("event")
-        if kind != "start" and self.sizes is None:
-            self.layout(camera_sizes(config))
+        if kind != "start" and self.cameras is None:
+            self.layout(camera_configs(config))
         if kind == "start":
             self.rec.log("log", rr.TextLog(f"run: {e.get('title', '')}, about {e.get('trials')} trials"))
             self._cameras_3d(e.get("cameras"))
-            if e.get("image_sizes"):
-                self.layout(e["image_sizes"])
+            if e.get("camera_configs"):
+                self.layout(e["camera_configs"][:CAMERAS])
         elif kind in ("phase", "message"):
             self.flush()
             self.rec.log("log", rr.TextLog(e.get("name") or e.get("text") or ""))
@@ -351,8 +383,8 @@ class LiveView:
 
     def env_step(self, env, obs, info, reward):
         """An environment's reset (``reward`` None) or step."""
-        if self.sizes is None:
-            self.layout(camera_sizes(env.config))
+        if self.cameras is None:
+            self.layout(camera_configs(env.config))
         if reward is None:
             self.trial_index += 1
             self.rec.set_time("trial", sequence=self.trial_index)
@@ -383,7 +415,7 @@ def main(argv=None):
     ap.add_argument(
         "--config",
         default="realistic",
-        help="the plant (a built-in name or a TOML file) whose cameras' image sizes lay out a stream whose start does not give them",
+        help="the plant (a built-in name or a TOML file) whose cameras lay out a stream whose start does not give them",
     )
     ap.add_argument("--ready", action="store_true", help="print a line 'ready' once the view is open")
     a = ap.parse_args(argv)
