@@ -194,3 +194,23 @@ def test_an_environments_recording_has_its_blueprint_and_timelines(tmp_path):
     assert ("[2D]", "[world/camera_1]") in views and ("[TimeSeries]", "[error]") in views, views
     assert bounds == [f"[{{x_range: [0.0, {w:.1f}], y_range: [0.0, {h:.1f}]}}]"] * 2, bounds
     assert timeline == ["[move]"]
+
+
+@needs_rerun
+def test_the_pinholes_project_the_lights_where_the_cameras_read_them():
+    # the live view's camera poses (camera_pose, from the configuration) against the plant's
+    # own cameras: its lights projected through each pinhole land where the camera read them
+    # (the ideal plant: no lens distortion worth a pixel here, centroid noise under a pixel)
+    env = SoftArmEnv(stage=1, config="ideal")
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        g = env.geometry()
+        read = np.asarray(obs["lights"])
+        for k, c in enumerate(live.camera_configs("ideal")):
+            rotation, position = live.camera_pose(c)
+            for j, x in enumerate(g["lights"]):
+                p = rotation.T @ (np.asarray(x) - position)
+                u, v = c["focal_px"] * p[:2] / p[2] + np.asarray(c["resolution"]) / 2
+                # readings interleave the cameras: light j in camera k is row 2 j + k
+                assert obs["status"][2 * j + k] == 0
+                assert np.hypot(u - read[2 * j + k][0], v - read[2 * j + k][1]) < 3.0, (seed, k, j)
