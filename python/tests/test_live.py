@@ -12,6 +12,7 @@ Skipped without the rerun SDK (the [live] extra).
 import io
 import json
 import subprocess
+import time
 import sys
 
 import numpy as np
@@ -173,13 +174,20 @@ def test_a_run_is_laid_out_for_the_cameras_its_start_gives(tmp_path, monkeypatch
         assert np.allclose(np.reshape(cam[f"/world/camera_{k}:Transform3D:mat3x3"][0], (3, 3)), axes, atol=1e-3)
 
 
-@needs_rerun
-def test_an_environments_recording_has_its_blueprint_and_timelines(tmp_path):
-    path = tmp_path / "env.rrd"
+def env_in_a_view(path):
+    """An environment (stage 2, the ideal plant) reset with seed 5, and a live view saving to
+    ``path`` that has shown the reset."""
     env = SoftArmEnv(stage=2, config="ideal")
     view = live.LiveView("trn_softarm_live_test", save=path)
     obs, info = env.reset(seed=5)
     view.env_step(env, obs, info, None)
+    return env, view
+
+
+@needs_rerun
+def test_an_environments_recording_has_its_blueprint_and_timelines(tmp_path):
+    path = tmp_path / "env.rrd"
+    env, view = env_in_a_view(path)
     for a in np.zeros((3, 3), dtype=np.float32):
         obs, reward, _, _, info = env.step(a)
         view.env_step(env, obs, info, reward)
@@ -214,3 +222,17 @@ def test_the_pinholes_project_the_lights_where_the_cameras_read_them():
                 # readings interleave the cameras: light j in camera k is row 2 j + k
                 assert obs["status"][2 * j + k] == 0
                 assert np.hypot(u - read[2 * j + k][0], v - read[2 * j + k][1]) < 3.0, (seed, k, j)
+
+
+@needs_rerun
+def test_a_move_reaches_the_recording_without_waiting_for_the_next(tmp_path):
+    # a move gathered for a batch is sent within the batch's time even when no other move
+    # follows (an environment stepped by hand): read back before the view is closed
+    path = tmp_path / "env.rrd"
+    _, view = env_in_a_view(path)
+    time.sleep(4 * live.BATCH_S)
+    view.rec.flush()  # the recording's own buffer to the file, not the view's batch
+    rec = load_recording(str(path))
+    joints = rec.view(index="move", contents="/world/arm/joints").select().read_all()
+    assert joints.column("move").to_pylist() == [1]
+    view.close()

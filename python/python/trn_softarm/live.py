@@ -31,6 +31,7 @@ and sends it one JSON object a line on its standard input: ``{"event": "start" |
 import argparse
 import json
 import sys
+import threading
 import time
 
 try:
@@ -143,31 +144,46 @@ class _Batch:
     instead of one log call an entity a move: rerun's cost a call, not the data, is most of
     a live view's time. Rows are kept per entity with their ``trial``, ``move`` and
     ``sim_time`` (``None`` when a move has none) and sent by :meth:`flush`: when
-    :data:`BATCH_ROWS` rows wait or :data:`BATCH_S` seconds passed, and at every phase, the
-    end and the close, so a viewer is never more than that behind."""
+    :data:`BATCH_ROWS` rows wait or :data:`BATCH_S` seconds passed since the first of them
+    (a timer's thread sends them if nothing else does), and at every phase, the end and the
+    close, so a viewer is never more than that behind."""
 
     def __init__(self, rec):
         self.rec = rec
         self.rows = {}  # entity -> (kind, [(trial, move, sim_time, value)])
         self.count = 0
         self.sent = time.monotonic()
+        # rows that wait are sent by a timer too, so that the last move of an environment
+        # stepped slowly reaches the viewer without waiting for the next one
+        self.lock = threading.Lock()
+        self.timer = None
 
     def add(self, entity, kind, trial, move, sim_time, value):
-        self.rows.setdefault(entity, (kind, []))[1].append((trial, move, sim_time, value))
-        self.count += 1
-        if self.count >= BATCH_ROWS or time.monotonic() - self.sent >= BATCH_S:
+        with self.lock:
+            self.rows.setdefault(entity, (kind, []))[1].append((trial, move, sim_time, value))
+            self.count += 1
+            due = self.count >= BATCH_ROWS or time.monotonic() - self.sent >= BATCH_S
+            if not due and self.timer is None:
+                self.timer = threading.Timer(BATCH_S, self.flush)
+                self.timer.daemon = True
+                self.timer.start()
+        if due:
             self.flush()
 
     def flush(self):
-        for entity, (kind, rows) in self.rows.items():
-            # rows with and without a simulated time go apart (a column has every row's)
-            for timed in (True, False):
-                part = [r for r in rows if (r[2] is not None) == timed]
-                if part:
-                    self._send(entity, kind, part, timed)
-        self.rows.clear()
-        self.count = 0
-        self.sent = time.monotonic()
+        with self.lock:
+            if self.timer is not None:
+                self.timer.cancel()
+                self.timer = None
+            for entity, (kind, rows) in self.rows.items():
+                # rows with and without a simulated time go apart (a column has every row's)
+                for timed in (True, False):
+                    part = [r for r in rows if (r[2] is not None) == timed]
+                    if part:
+                        self._send(entity, kind, part, timed)
+            self.rows.clear()
+            self.count = 0
+            self.sent = time.monotonic()
 
     def _send(self, entity, kind, rows, timed):
         indexes = [
