@@ -26,6 +26,7 @@ use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use trn_plant::camera::Camera;
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::markers::Tracker;
 use trn_plant::pixels::PixelVision;
@@ -665,6 +666,20 @@ impl ArmVec {
             .ok_or_else(|| PyValueError::new_err(format!("no arm {i}")))?
             .info(py)
     }
+}
+
+/// The cameras of a named plant (or a TOML file) as ideal pinholes (`trn_plant::camera::Pinhole`:
+/// `position_mm`, `axes`, `focal_px`, `resolution`), a JSON list.
+#[pyfunction]
+#[pyo3(signature = (name = "realistic"))]
+pub fn camera_pinholes(name: &str) -> PyResult<String> {
+    let cfg = resolve(name)?;
+    let pinholes: Vec<_> = cfg
+        .cameras
+        .iter()
+        .map(|c| Camera::new(c).pinhole())
+        .collect();
+    serde_json::to_string(&pinholes).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
 /// The full configuration of a named plant (or a TOML file) as JSON.

@@ -33,6 +33,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(decode::decode_candump, m)?)?;
     m.add_class::<decode::StreamDecoder>()?;
     m.add_function(wrap_pyfunction!(arm::config_json, m)?)?;
+    m.add_function(wrap_pyfunction!(arm::camera_pinholes, m)?)?;
     m.add_function(wrap_pyfunction!(model::arm_model, m)?)?;
     m.add_function(wrap_pyfunction!(model::arm_frames, m)?)?;
     Ok(())

@@ -40,17 +40,16 @@ CYLINDER = {"centre": [600.0, 80.0, 40.0], "axis": [0.0, 1.0, 0.0], "radius": 20
 def run_events(cameras=None):
     """A short run's events, shaped as host/cli/src/live.rs sends them: two training trials
     (stage 1: four rows a reading, one light not read; stage 2: two rows), an evaluation and
-    a grasp; the start gives the ``cameras`` (their configuration) when given."""
+    a grasp; the start gives the ``cameras`` (as pinholes) when given."""
 
     def move(t, seen, err):
         return {"time_s": t, "links": LINKS, "lights": LIGHTS, "seen": seen, "target": [500.0] * len(seen),
                 "measured_px": err, "true_px": err - 0.5}
 
     stage1 = [510.0, 520.0, None, None, 530.0, 540.0, 550.0, 560.0]
-    start = {"event": "start", "trials": 4, "title": "trn train",
-             "cameras": [[2100.0, -650.0, 650.0], [2100.0, 650.0, 650.0]]}
+    start = {"event": "start", "trials": 4, "title": "trn train"}
     if cameras is not None:
-        start["camera_configs"] = cameras
+        start["cameras"] = cameras
     return [
         start,
         {"event": "phase", "name": "training"},
@@ -150,9 +149,13 @@ def test_a_runs_recording_has_its_blueprint_and_timelines(tmp_path, monkeypatch)
 @needs_rerun
 def test_a_run_is_laid_out_for_the_cameras_its_start_gives(tmp_path, monkeypatch):
     path = tmp_path / "run.rrd"
+    # camera 0 looks along -x from x = 2 m (its image x towards +y), camera 1 straight down
+    # from 3 m (its image x towards -y)
     cameras = [
-        {"resolution": [640, 480], "focal_px": 500.0, "position_mm": [2000.0, 0.0, 500.0], "look_at_mm": [0.0, 0.0, 500.0]},
-        {"resolution": [800, 600], "focal_px": 700.0, "position_mm": [0.0, 0.0, 3000.0], "look_at_mm": [0.0, 0.0, 0.0]},
+        {"resolution": [640, 480], "focal_px": 500.0, "position_mm": [2000.0, 0.0, 500.0],
+         "axes": [[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]]},
+        {"resolution": [800, 600], "focal_px": 700.0, "position_mm": [0.0, 0.0, 3000.0],
+         "axes": [[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]},
     ]
     events = run_events(cameras)
     monkeypatch.setattr(sys, "stdin", io.StringIO("".join(json.dumps(e) + "\n" for e in events)))
@@ -160,10 +163,11 @@ def test_a_run_is_laid_out_for_the_cameras_its_start_gives(tmp_path, monkeypatch
     _, bounds, _ = blueprint_of(path)
     assert sorted(bounds) == ["[{x_range: [0.0, 640.0], y_range: [0.0, 480.0]}]",
                       "[{x_range: [0.0, 800.0], y_range: [0.0, 600.0]}]"], bounds
-    # each camera a pinhole of its focal length and image, placed and turned as the plant
-    # places it: camera 0 looks along -x from x = 2 m (its image x towards +y), camera 1
-    # straight down from 3 m (the fallback: its image x towards -y)
+    # each camera a pinhole of its focal length and image, placed and turned as the start
+    # gives it, its centre among the cameras' points
     rec = load_recording(str(path))
+    centres = rec.view(index=None, contents="/world/cameras").select().read_all().to_pydict()
+    assert np.allclose(centres["/world/cameras:Points3D:positions"][0], [[2000, 0, 500], [0, 0, 3000]])
     for k, f, (w, h), axes, pos in [(0, 500.0, (640, 480), [[0, 1, 0], [0, 0, -1], [-1, 0, 0]], [2000, 0, 500]),
                                     (1, 700.0, (800, 600), [[0, -1, 0], [-1, 0, 0], [0, 0, -1]], [0, 0, 3000])]:
         cam = rec.view(index=None, contents=f"/world/camera_{k}").select().read_all().to_pydict()
@@ -206,16 +210,16 @@ def test_an_environments_recording_has_its_blueprint_and_timelines(tmp_path):
 
 @needs_rerun
 def test_the_pinholes_project_the_lights_where_the_cameras_read_them():
-    # the live view's camera poses (camera_pose, from the configuration) against the plant's
-    # own cameras: its lights projected through each pinhole land where the camera read them
+    # the live view's cameras (camera_pinholes) against the plant's own: its lights
+    # projected through each pinhole land where the camera read them
     # (the ideal plant: no lens distortion worth a pixel here, centroid noise under a pixel)
     env = SoftArmEnv(stage=1, config="ideal")
     for seed in range(3):
         obs, _ = env.reset(seed=seed)
         g = env.geometry()
         read = np.asarray(obs["lights"])
-        for k, c in enumerate(live.camera_configs("ideal")):
-            rotation, position = live.camera_pose(c)
+        for k, c in enumerate(live.camera_pinholes("ideal")):
+            rotation, position = np.asarray(c["axes"]).T, np.asarray(c["position_mm"])
             for j, x in enumerate(g["lights"]):
                 p = rotation.T @ (np.asarray(x) - position)
                 u, v = c["focal_px"] * p[:2] / p[2] + np.asarray(c["resolution"]) / 2

@@ -14,6 +14,7 @@ use serde_json::{json, Value};
 use trn_bench::output::{check_path, Kind, PendingFile};
 use trn_bench::records::{Phase, TrialRecord};
 use trn_bench::{metrics, scoring, LabError, Observer};
+use trn_plant::camera::Camera;
 use trn_plant::kinematics::{forward, lights};
 use trn_plant::nodes::Sight;
 use trn_plant::{Readings, SimConfig};
@@ -254,13 +255,17 @@ impl LiveStream {
 
 impl Observer for LiveStream {
     fn start(&mut self, trials: u64) {
-        let cams: Vec<[f64; 3]> = self.cfg.cameras.iter().map(|c| c.position_mm).collect();
+        let pinholes: Vec<_> = self
+            .cfg
+            .cameras
+            .iter()
+            .map(|c| Camera::new(c).pinhole())
+            .collect();
         let title = std::env::args().collect::<Vec<_>>().join(" ");
         self.send(json!({
             "event": "start",
             "trials": trials,
-            "cameras": cams,
-            "camera_configs": self.cfg.cameras,
+            "cameras": pinholes,
             "title": title,
         }));
     }

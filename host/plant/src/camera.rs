@@ -20,6 +20,21 @@ pub struct Camera {
     pub size: [u32; 2],
 }
 
+/// A camera as an ideal pinhole a viewer can place (lens distortion left out): its centre,
+/// its axes and its intrinsics, as [`Camera::new`] builds them.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Pinhole {
+    /// The camera centre (mm, base frame).
+    pub position_mm: [f64; 3],
+    /// The image's x (right), its y (down) and the optical axis, unit vectors in the base
+    /// frame: the columns of the rotation from camera to base coordinates.
+    pub axes: [[f64; 3]; 3],
+    /// The focal length (pixels).
+    pub focal_px: f64,
+    /// Image width and height (pixels); the principal point is the image centre.
+    pub resolution: [u32; 2],
+}
+
 impl Camera {
     /// A camera from its configuration.
     pub fn new(c: &CameraConfig) -> Camera {
@@ -42,6 +57,17 @@ impl Camera {
             cy: c.resolution[1] as f64 / 2.0,
             k: c.distortion,
             size: c.resolution,
+        }
+    }
+
+    /// The camera as an ideal pinhole ([`Pinhole`]).
+    pub fn pinhole(&self) -> Pinhole {
+        let xyz = |v: &Vector3<f64>| [v.x, v.y, v.z];
+        Pinhole {
+            position_mm: xyz(&self.pos),
+            axes: [xyz(&self.right), xyz(&self.down), xyz(&self.forward)],
+            focal_px: self.f,
+            resolution: self.size,
         }
     }
 
@@ -119,6 +145,39 @@ mod tests {
             None,
             "outside the image"
         );
+    }
+
+    #[test]
+    fn the_pinhole_projects_as_the_camera_without_distortion() {
+        // a camera placed off every axis, its pinhole's axes and intrinsics applied by hand
+        let c = Camera::new(&CameraConfig {
+            resolution: [1024, 768],
+            focal_px: 800.0,
+            position_mm: [2100.0, -650.0, 650.0],
+            look_at_mm: [550.0, 0.0, 450.0],
+            distortion: [0.0, 0.0],
+        });
+        let h = c.pinhole();
+        assert_eq!(
+            (h.position_mm, h.focal_px, h.resolution),
+            ([2100.0, -650.0, 650.0], 800.0, [1024, 768])
+        );
+        for p in [
+            [500.0, 0.0, 400.0],
+            [700.0, -200.0, 100.0],
+            [300.0, 150.0, 600.0],
+        ] {
+            let d: Vec<f64> = (0..3).map(|i| p[i] - h.position_mm[i]).collect();
+            let along = |a: [f64; 3]| a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
+            let z = along(h.axes[2]);
+            let u = h.focal_px * along(h.axes[0]) / z + h.resolution[0] as f64 / 2.0;
+            let v = h.focal_px * along(h.axes[1]) / z + h.resolution[1] as f64 / 2.0;
+            let (cu, cv) = c.project(&Vector3::from(p)).unwrap();
+            assert!(
+                (u - cu).abs() < 1e-9 && (v - cv).abs() < 1e-9,
+                "{p:?}: {u} {v} against {cu} {cv}"
+            );
+        }
     }
 
     #[test]

@@ -44,7 +44,7 @@ except ImportError as e:  # pragma: no cover - the message is the point
 
 import numpy as np
 
-from ._native import config_json
+from ._native import camera_pinholes as _camera_pinholes
 
 # colours readable on the viewer's dark background
 LINK = [190, 200, 215]  # the arm's links: light blue-grey
@@ -73,24 +73,11 @@ CAMERAS = 2
 PINHOLE_MM = 250.0
 
 
-def camera_configs(config="realistic"):
-    """The cameras of the plant ``config`` (a built-in name or a TOML file): each one's
-    ``resolution``, ``focal_px``, ``position_mm`` and ``look_at_mm`` as the plant's
-    configuration gives them."""
-    return json.loads(config_json(config))["cameras"][:CAMERAS]
-
-
-def camera_pose(c):
-    """A camera's rotation (columns: the image's x, its y and the optical axis, in the base
-    frame) and position, as the plant builds them: the optical axis towards ``look_at_mm``,
-    the image's x level (the axis crossed with up), y down."""
-    pos = np.asarray(c["position_mm"], dtype=float)
-    forward = np.asarray(c["look_at_mm"], dtype=float) - pos
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right = right / np.linalg.norm(right) if np.linalg.norm(right) > 1e-9 else np.array([0.0, -1.0, 0.0])
-    down = np.cross(forward, right)
-    return np.column_stack([right, down, forward]), pos
+def camera_pinholes(config="realistic"):
+    """The cameras of the plant ``config`` (a built-in name or a TOML file) as the plant
+    builds them, ideal pinholes: each one's ``position_mm``, ``axes`` (the image's x, its y
+    and the optical axis in the base frame), ``focal_px`` and ``resolution``."""
+    return json.loads(_camera_pinholes(config))[:CAMERAS]
 
 
 def blueprint(sizes, curves=False):
@@ -215,7 +202,6 @@ class LiveView:
         self._open(spawn, save, connect)
         self.curves = curves
         self.cameras = None
-        self.cameras_logged = False
         self.cylinder_shown = False
         self.series = set()
         self.move = 0
@@ -277,18 +263,22 @@ class LiveView:
 
     def layout(self, cameras):
         """Sends the blueprint and each camera as a pinhole in the world (``world/camera_k``:
-        its pose, focal length and image, the frame of its image at ``world/camera_k/image``)
-        for ``cameras`` (as :func:`camera_configs` gives them), unless they were sent."""
+        its pose, focal length and image, the frame of its image at ``world/camera_k/image``;
+        its centre among ``world/cameras``) for ``cameras`` (as :func:`camera_pinholes` gives
+        them), unless they were sent."""
         cameras = list(cameras)
         if cameras == self.cameras:
             return
         self.cameras = cameras
         sizes = [tuple(c["resolution"]) for c in cameras]
         self.rec.send_blueprint(blueprint(sizes, self.curves))
+        centres = [c["position_mm"] for c in cameras]
+        self.rec.log("world/cameras", rr.Points3D(centres, colors=[CAMERA], radii=[20.0]), static=True)
         for k, c in enumerate(cameras):
-            (w, h), (rotation, position) = sizes[k], camera_pose(c)
+            w, h = sizes[k]
             path = f"world/camera_{k}"
-            self.rec.log(path, rr.Transform3D(translation=position, mat3x3=rotation), static=True)
+            rotation = np.asarray(c["axes"], dtype=float).T  # the axes as its columns
+            self.rec.log(path, rr.Transform3D(translation=c["position_mm"], mat3x3=rotation), static=True)
             pinhole = rr.Pinhole(
                 focal_length=float(c["focal_px"]),
                 width=w,
@@ -299,12 +289,6 @@ class LiveView:
             )
             self.rec.log(path, pinhole, static=True)
             self.rec.log(f"{path}/image", rr.Boxes2D(mins=[0, 0], sizes=[w, h], colors=[FRAME]), static=True)
-
-    def _cameras_3d(self, positions):
-        """The cameras in the world (they do not move), once."""
-        if positions and not self.cameras_logged:
-            self.cameras_logged = True
-            self.rec.log("world/cameras", rr.Points3D(positions, colors=[CAMERA], radii=[20.0]), static=True)
 
     def _next_move(self, time_s):
         self.move += 1
@@ -363,12 +347,11 @@ class LiveView:
         without them is laid out for the plant ``config``'s."""
         kind = e.get("event")
         if kind != "start" and self.cameras is None:
-            self.layout(camera_configs(config))
+            self.layout(camera_pinholes(config))
         if kind == "start":
             self.rec.log("log", rr.TextLog(f"run: {e.get('title', '')}, about {e.get('trials')} trials"))
-            self._cameras_3d(e.get("cameras"))
-            if e.get("camera_configs"):
-                self.layout(e["camera_configs"][:CAMERAS])
+            if e.get("cameras"):
+                self.layout(e["cameras"][:CAMERAS])
         elif kind in ("phase", "message"):
             self.flush()
             self.rec.log("log", rr.TextLog(e.get("name") or e.get("text") or ""))
@@ -400,13 +383,12 @@ class LiveView:
     def env_step(self, env, obs, info, reward):
         """An environment's reset (``reward`` None) or step."""
         if self.cameras is None:
-            self.layout(camera_configs(env.config))
+            self.layout(camera_pinholes(env.config))
         if reward is None:
             self.trial_index += 1
             self.rec.set_time("trial", sequence=self.trial_index)
         self._next_move(info["time_s"])
         g = env.geometry()
-        self._cameras_3d(g["cameras"].tolist())
         self._arm(g["links"].tolist(), g["lights"].tolist(), g["target_lights"].tolist())
         status = np.asarray(obs["status"])
         seen = [None if s else float(c) for s, row in zip(status, obs["lights"]) for c in row]
