@@ -7,7 +7,8 @@ Random actions, episodes reset as they end (the reset counts: it is part of step
 environment); each figure is environment steps (moves) per second of wall-clock time in
 this process. The single and vector figures are measured in one run, so they compare on
 one machine under one load. ``--frames`` adds a row with the camera frames in the
-observation (``frames=True``, the default ``frame_scale``).
+observation (``frames=True``, the default ``frame_scale``). A second table gives one native
+arm's move time alone (mean and percentiles), with and without ``dt_s``.
 """
 
 import argparse
@@ -44,6 +45,25 @@ def vector(envs, seconds, seed=0):
     rate = n / (time.perf_counter() - t0)
     envs.close()
     return rate
+
+
+def step_times(dt_s, steps=2000, episode=20, seed=0):
+    """One native arm's move (``Arm.step``, no Python layer) timed one by one: random
+    actions, a reset every ``episode`` moves (not timed). Microseconds."""
+    from trn_softarm._native import Arm
+
+    rng = np.random.default_rng(seed)
+    arm = Arm("realistic", 1, dt_s, False, 0.0)
+    arm.reset(seed)
+    times = []
+    for i in range(steps):
+        action = rng.uniform(-1, 1, 5).astype(np.float32).tolist()
+        t0 = time.perf_counter()
+        arm.step(action)
+        times.append(time.perf_counter() - t0)
+        if i % episode == episode - 1:
+            arm.reset(seed + 1 + i)
+    return 1e6 * np.array(times)
 
 
 def main():
@@ -85,11 +105,23 @@ def main():
         vs_ref = ref.get("sync" if kind == "native" else kind)
         lines.append(f"| {env} | {mode} | {r:,.0f} | {r / singles[env]:.2f} | "
                      + (f"{r / vs_ref:.3f} |" if vs_ref else "- |"))
+    lines += [
+        "",
+        "One arm's move alone (`Arm.step`, without the Python layer; 2,000 random moves, "
+        "microseconds): a vector step waits for its slowest arm.",
+        "",
+        "| plant | mean | p10 | median | p90 | p99 | worst |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name, dt in (("SoftArm-v0", None), (f"SoftArm-v0 dt_s={a.fast_dt}", a.fast_dt)):
+        t = step_times(dt)
+        q = np.percentile(t, [10, 50, 90, 99])
+        lines.append(f"| {name} | {t.mean():.0f} | {q[0]:.0f} | {q[1]:.0f} | {q[2]:.0f} | {q[3]:.0f} | {t.max():.0f} |")
     print("\n".join(lines))
     if a.out:
         with open(a.out, "w") as f:
             f.write("# Environment steps per second\n\nWritten by `python python/examples/bench_steps.py"
-                    f" --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5 in one run).\n\n")
+                    f" --seconds {s:g} --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5 in one run).\n\n")
             f.write("\n".join(lines) + "\n")
 
 if __name__ == "__main__":

@@ -387,6 +387,18 @@ pub struct Arm {
     sim: Sim,
 }
 
+impl Arm {
+    /// The configuration its plants are built from (the calibrated model's arm).
+    pub(crate) fn sim_config(&self) -> &SimConfig {
+        &self.sim.cfg
+    }
+
+    /// The plant as it is now (what the oracle solves on).
+    pub(crate) fn plant(&self) -> &Plant {
+        &self.sim.plant
+    }
+}
+
 #[pymethods]
 impl Arm {
     /// An arm of the named plant (`realistic`, `ideal`, `aging`, or a TOML file) for stage

@@ -1,19 +1,67 @@
 //! [`Ctrl`]: the project's controller (the TRN, or the Broyden servo it is compared with) on
 //! plain lists of floats, as the CAN node drives it: a target starts a trial, each reading
-//! after a move gives the next command, until the trial is done.
+//! after a move gives the next command, until the trial is done. The learning-free
+//! references of the comparison run behind the same calls ([`trn_references`]): the
+//! calibrated model (built from the arm's configuration) and the oracle (handed the arm's
+//! plant before each decision).
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use trn_controller::presets::{Ablation, ImageSize, Preset, Profile};
 use trn_controller::{
-    Command, Controller, FineMoves, Law, Observation, ObserveKind, StageOutcome, Task,
+    Command, Control, Controller, FineMoves, Law, Observation, ObserveKind, StageOutcome, Task,
 };
+use trn_plant::Plant;
+use trn_references::{NominalIk, Oracle};
 
-/// A controller (see the module). Its 230 KB of tables live on the heap.
+use crate::arm::Arm;
+
+/// The controller behind a [`Ctrl`].
+enum Inner {
+    /// The TRN or the Broyden servo (the core's laws). Its 230 KB of tables live on the heap.
+    Core(Box<Controller>),
+    /// The calibrated model of the arm's configuration.
+    Model(Box<NominalIk>),
+    /// The oracle, on a copy of the arm's plant taken before each decision.
+    Oracle(Box<Oracle<Plant>>),
+}
+
+impl Inner {
+    fn control(&mut self) -> &mut dyn Control {
+        match self {
+            Inner::Core(c) => c.as_mut(),
+            Inner::Model(c) => c.as_mut(),
+            Inner::Oracle(c) => c.as_mut(),
+        }
+    }
+
+    fn busy(&self) -> bool {
+        match self {
+            Inner::Core(c) => c.busy(),
+            Inner::Model(c) => c.busy(),
+            Inner::Oracle(c) => c.busy(),
+        }
+    }
+
+    /// The oracle sees `arm`'s plant as it is now; the others need no arm.
+    fn look(&mut self, arm: Option<&PyRef<'_, Arm>>) -> PyResult<()> {
+        if let Inner::Oracle(o) = self {
+            let arm = arm.ok_or_else(|| {
+                PyValueError::new_err("the oracle solves on the arm's plant: pass arm=")
+            })?;
+            o.model_mut().plant = arm.plant().clone();
+        }
+        Ok(())
+    }
+}
+
+/// A controller (see the module).
 #[pyclass(module = "trn_softarm._native")]
 pub struct Ctrl {
-    ctrl: Box<Controller>,
+    ctrl: Inner,
+    /// The law's name.
+    law: &'static str,
     /// The reading the last move asked for.
     expect: Option<ObserveKind>,
 }
@@ -67,55 +115,80 @@ fn outcome<'py>(py: Python<'py>, s: &StageOutcome) -> PyResult<Bound<'py, PyDict
 
 #[pymethods]
 impl Ctrl {
-    /// A controller of `law` (`trn` or `broyden`) configured by `preset` and `ablation` for
-    /// cameras of `image` size, its tables seeded from `seed`.
+    /// A controller of `law` configured by `preset` and `ablation` for cameras of `image`
+    /// size: `trn` or `broyden`, its tables seeded from `seed`; or a learning-free reference
+    /// of the arm `arm` (with the TRN's stop rule): `model`, the calibrated model of its
+    /// configuration, or `oracle`, which solves on its plant as it is at each decision
+    /// (`begin` and `observe` are then given the arm too).
     #[new]
-    #[pyo3(signature = (law = "trn", preset = "project", ablation = "none", seed = 0, image = (1024, 768)))]
+    #[pyo3(signature = (law = "trn", preset = "project", ablation = "none", seed = 0, image = (1024, 768), arm = None))]
     fn new(
         law: &str,
         preset: &str,
         ablation: &str,
         seed: u64,
         image: (u16, u16),
+        arm: Option<PyRef<'_, Arm>>,
     ) -> PyResult<Ctrl> {
         let bad = |what: &str, name: &str| PyValueError::new_err(format!("no {what} {name:?}"));
-        // an allow-list: a law added to the controller later is refused here until this
-        // binding can serve it
-        let law = match Law::from_name(law) {
-            Some(l @ (Law::Trn | Law::Broyden)) => l,
-            None if Law::host_code(law).is_some() => {
-                return Err(PyValueError::new_err(format!(
-                    "law {law:?} runs in the simulator only (trn train --controller {law}); \
-                     this binding serves \"trn\" and \"broyden\""
-                )))
-            }
-            _ => {
-                return Err(PyValueError::new_err(format!(
-                    "no law {law:?} in this binding: it serves \"trn\" and \"broyden\""
-                )))
-            }
-        };
+        let serves = "this binding serves \"trn\", \"broyden\", \"model\" and \"oracle\"";
         let preset = Preset::from_name(preset).ok_or_else(|| bad("preset", preset))?;
         let ablation = Ablation::from_name(ablation).ok_or_else(|| bad("ablation", ablation))?;
         let image = ImageSize {
             width: image.0,
             height: image.1,
         };
-        let cfg = Profile {
-            preset,
-            ablation,
-            law,
-        }
-        .config(image);
-        let mut ctrl = Box::new(Controller::new(cfg));
-        ctrl.init_random(seed);
-        Ok(Ctrl { ctrl, expect: None })
+        let config = |law| {
+            Profile {
+                preset,
+                ablation,
+                law,
+            }
+            .config(image)
+        };
+        let needs_arm = || {
+            PyValueError::new_err(format!(
+                "law {law:?} is a model of the arm: pass the environment's arm (arm=)"
+            ))
+        };
+        // an allow-list: a law added to the controller later is refused here until this
+        // binding can serve it
+        let (ctrl, name) = match (Law::from_name(law), law) {
+            (Some(l @ (Law::Trn | Law::Broyden)), _) => {
+                let mut ctrl = Box::new(Controller::new(config(l)));
+                ctrl.init_random(seed);
+                (Inner::Core(ctrl), l.name())
+            }
+            (None, "model") => {
+                let arm = arm.as_ref().ok_or_else(needs_arm)?;
+                let model = NominalIk::new(arm.sim_config(), config(Law::Trn))
+                    .map_err(|e| PyValueError::new_err(format!("model: {e}")))?;
+                (Inner::Model(Box::new(model)), "model")
+            }
+            (None, "oracle") => {
+                let arm = arm.as_ref().ok_or_else(needs_arm)?;
+                let oracle = Oracle::new(arm.plant().clone(), config(Law::Trn));
+                (Inner::Oracle(Box::new(oracle)), "oracle")
+            }
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "no law {law:?} in this binding: {serves}"
+                )))
+            }
+        };
+        Ok(Ctrl {
+            ctrl,
+            law: name,
+            expect: None,
+        })
     }
 
     /// Starts a trial of `stage` (1: target lights p, q, 8 values; 2: the gripper centre, 4)
     /// learning from it when `learn`; `fine_moves` exactly that many fine moves (None: the
-    /// controller's own stop rule); `supervised` the target's pressures (priming, stage 1).
-    #[pyo3(signature = (stage, target, learn = true, fine_moves = None, supervised = None))]
+    /// controller's own stop rule); `supervised` the target's pressures (priming, stage 1);
+    /// `arm` the arm (the oracle's plant).
+    #[pyo3(signature = (stage, target, learn = true, fine_moves = None, supervised = None, arm = None))]
+    #[allow(clippy::too_many_arguments)]
     fn begin<'py>(
         &mut self,
         py: Python<'py>,
@@ -124,9 +197,10 @@ impl Ctrl {
         learn: bool,
         fine_moves: Option<u8>,
         supervised: Option<Vec<f32>>,
+        arm: Option<PyRef<'_, Arm>>,
     ) -> PyResult<(String, Bound<'py, PyAny>)> {
         if self.ctrl.busy() {
-            self.ctrl.abort();
+            self.ctrl.control().abort();
         }
         let supervised = supervised
             .map(|p| array::<5>(&p, "supervised"))
@@ -144,30 +218,35 @@ impl Ctrl {
             _ => return Err(PyValueError::new_err("stage is 1 or 2")),
         };
         let fine = fine_moves.map_or(FineMoves::Policy, FineMoves::Exactly);
-        let c = self.ctrl.begin_with(task, fine).map_err(err)?;
+        self.ctrl.look(arm.as_ref())?;
+        let c = self.ctrl.control().begin_with(task, fine).map_err(err)?;
         self.note(&c);
         command(py, c)
     }
 
     /// The reading after the last move (8 or 4 values, as the move asked); the next command.
+    /// `arm`: the arm (the oracle's plant).
+    #[pyo3(signature = (reading, arm = None))]
     fn observe<'py>(
         &mut self,
         py: Python<'py>,
         reading: Vec<f32>,
+        arm: Option<PyRef<'_, Arm>>,
     ) -> PyResult<(String, Bound<'py, PyAny>)> {
         let obs = match self.expect {
             Some(ObserveKind::Lights) => Observation::Lights(array(&reading, "reading")?),
             Some(ObserveKind::Centre) => Observation::Centre(array(&reading, "reading")?),
             None => return Err(PyRuntimeError::new_err("no trial is running")),
         };
-        let c = self.ctrl.observe(obs).map_err(err)?;
+        self.ctrl.look(arm.as_ref())?;
+        let c = self.ctrl.control().observe(obs).map_err(err)?;
         self.note(&c);
         command(py, c)
     }
 
     /// Abandons the running trial (nothing is learned from its last move).
     fn abort(&mut self) {
-        self.ctrl.abort();
+        self.ctrl.control().abort();
         self.expect = None;
     }
 
@@ -180,7 +259,7 @@ impl Ctrl {
     /// The control law's name.
     #[getter]
     fn law(&self) -> &'static str {
-        self.ctrl.config().law.name()
+        self.law
     }
 }
 

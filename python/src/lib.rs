@@ -4,7 +4,8 @@
 //!   deployment-style target, moves read by the camera processor's vision), with the
 //!   pictures of both cameras ([`render`]).
 //! - [`control::Ctrl`]: the TRN or the Broyden servo on plain lists of floats: a task in,
-//!   pressures out, observations in.
+//!   pressures out, observations in; the calibrated model and the oracle (`trn-references`)
+//!   behind the same calls.
 //! - [`model`]: the arm as URDF or MJCF, and the plant's forward kinematics to check it by.
 //! - [`decode`]: frames and candump logs as the protocol's messages, by the receivers' own
 //!   decoder.

@@ -49,10 +49,7 @@ pub struct RigStats {
     pub heartbeats: u64,
 }
 
-/// The plant of a rig, shared with a controller that may look at its true state (the
-/// oracle, in process only): the rig never holds a borrow across a wait on the bus, when
-/// such a controller runs.
-pub type SharedPlant = Rc<RefCell<Plant>>;
+pub use trn_references::SharedPlant;
 
 /// The plant and its nodes on one port.
 pub struct Rig<P> {

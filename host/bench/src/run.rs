@@ -17,9 +17,7 @@ use trn_transport::{peer, slcan_qemu, slcan_serial, BusSpec, ControllerSite, Tra
 use crate::checkpoint_file;
 use crate::error::{LabError, Result};
 use crate::observe::Observer;
-use crate::oracle::Oracle;
 use crate::output::OutputPlan;
-use crate::reference::NominalIk;
 use crate::report::Report;
 use crate::rig::SharedPlant;
 use crate::session::{Setup, Start};
@@ -27,6 +25,8 @@ use crate::sim_state;
 use crate::spec::{Command, ControllerChoice, RunSpec};
 use crate::suite::{no_suite, NoSuite, Suite};
 use crate::tables::opening::{Opening, Want};
+use trn_references::NominalIk;
+use trn_references::Oracle;
 use trn_transport::board;
 
 /// Runs a specification: training (if `plan.trials > 0`), the held-out evaluation and

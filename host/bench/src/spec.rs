@@ -82,10 +82,10 @@ trn_controller::wire_enum! {
         /// The Broyden servo baseline ([`Law::Broyden`]).
         Broyden = 1 => "broyden",
         /// The model-based reference: the simulator's nominal inverse kinematics
-        /// ([`crate::reference::NominalIk`]).
+        /// ([`trn_references::NominalIk`]).
         Model = 2 => "model",
         /// The physical limit: it solves on an exact copy of the simulated plant
-        /// ([`crate::oracle::Oracle`]).
+        /// ([`trn_references::Oracle`]).
         Oracle = 3 => "oracle",
     }
 }

@@ -3,8 +3,9 @@
 - :class:`SoftArmEnv`: a Gymnasium environment of the simulated SoftArm (registered as
   ``trn_softarm/SoftArm-v0``; ``gym.make_vec`` gives its native vector form,
   :class:`SoftArmVectorEnv`), :class:`FlatObservation` (its observation as one vector).
-- :class:`Controller`: the project's controllers (the TRN, the Broyden servo) on numpy
-  arrays, to compare an agent with.
+- :class:`Controller`: the project's controllers (the TRN, the Broyden servo; the
+  calibrated model and the oracle of an environment's arm) on numpy arrays, to compare an
+  agent with.
 - :func:`decode_candump`, :func:`decode_frames`: the CAN protocol's frames and candump logs
   as messages, segmented ones included, through the Rust decoder.
 - :func:`arm_model`: the arm as URDF or MuJoCo's MJCF (``python -m trn_softarm.model``

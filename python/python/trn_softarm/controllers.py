@@ -1,5 +1,11 @@
 """The project's controllers on numpy arrays: the TRN (Sarkar & Schulten) and the Broyden
-servo (uncalibrated visual servoing), the same Rust code the CAN node and the firmware run.
+servo (uncalibrated visual servoing), the same Rust code the CAN node and the firmware run;
+and the learning-free references the lab compares them with, the same Rust code as its
+``--controller model`` and ``--controller oracle``: the calibrated model (the arm's links,
+cameras and pressure curves without hysteresis, drift or wear; inverse kinematics, then
+Gauss-Newton steps) and the oracle (it solves on an exact copy of the arm as it is at each
+decision: the physical limit). These two are models of one environment's arm: they are
+made with ``env=``.
 
 A controller works in trials: ``act(obs)`` at the start of an episode gives the coarse move
 towards ``obs["target"]``; each later ``act(obs)`` passes the reading after the last move
@@ -15,15 +21,32 @@ from ._native import Ctrl
 
 
 class Controller:
-    """A TRN or Broyden controller for one stage of the SoftArmEnv (see the module)."""
+    """A controller for one stage of the SoftArmEnv (see the module)."""
 
-    def __init__(self, law="trn", stage=1, preset="project", ablation="none", seed=0, image=(1024, 768)):
-        """``law``: ``trn`` or ``broyden``; ``preset``: ``project``, ``paper`` or
-        ``lifelong``; ``ablation``: ``none``, ``no-neighbourhood``, ``no-priming``,
-        ``no-fine``, ``no-trial-secant``; ``seed``: the initial tables."""
+    def __init__(self, law="trn", stage=None, preset="project", ablation="none", seed=0, image=(1024, 768), env=None):
+        """``law``: ``trn``, ``broyden``, ``model`` or ``oracle``; ``preset``: ``project``,
+        ``paper`` or ``lifelong``; ``ablation``: ``none``, ``no-neighbourhood``,
+        ``no-priming``, ``no-fine``, ``no-trial-secant``; ``seed``: the initial tables.
+        ``stage``: 1 or 2 (default: the environment's, else 1). ``env``: the SoftArmEnv
+        whose arm ``model`` and ``oracle`` model (the image size is then the environment's;
+        the model and the oracle use the TRN's stop rule of ``preset``)."""
+        self._arm = None
+        if env is not None:
+            env = getattr(env, "unwrapped", env)
+            self._arm = getattr(env, "_arm", None)
+            if self._arm is None:
+                raise ValueError("env: a SoftArmEnv (the native vector environment has no single arm)")
+            if stage not in (None, env.stage):
+                raise ValueError(f"stage {stage}: the environment is of stage {env.stage}")
+            stage, image = env.stage, tuple(self._arm.image_size)
+        elif law in ("model", "oracle"):
+            raise ValueError(f"law {law!r} is a model of an environment's arm: pass env=")
+        stage = 1 if stage is None else stage
         if stage not in (1, 2):
             raise ValueError("stage is 1 or 2")
-        self._ctrl = Ctrl(law, preset, ablation, int(seed), tuple(image))
+        self._ctrl = Ctrl(law, preset, ablation, int(seed), tuple(image), self._arm)
+        # the oracle reads the arm at each decision
+        self._look = self._arm if law == "oracle" else None
         self.stage = stage
         self.law = law
         self.joints = 5 if stage == 1 else 3
@@ -39,23 +62,26 @@ class Controller:
     def act(self, obs, learn=True, fine_moves=None, supervised=None):
         """The next pressures (``joints`` values) for the reading ``obs`` (the environment's
         observation dict). ``supervised``: the target's pressures, for the TRN's supervised
-        priming. A reading with a light not valid ends the trial (as the CAN node aborts it:
-        nothing is learned from that move); then, and after ``done``, the last pressures are
-        held."""
+        priming. A reading with a light not read ends the trial, as the CAN node ends it
+        (nothing is learned from that move); so does an estimated light (status 4: placed by
+        the camera processor) in a trial that learns, since the tables would take the
+        estimate's error for the arm's; a trial that does not learn moves on with it. Then,
+        and after ``done``, the last pressures are held."""
         status = np.asarray(obs["status"])
         if self.done:
             return self._hold()
         if self._pressures is None:
             target = np.asarray(obs["target"], dtype=np.float32).ravel()
             sup = None if supervised is None else np.asarray(supervised, dtype=np.float32).ravel().tolist()
-            what, value = self._ctrl.begin(self.stage, target.tolist(), bool(learn), fine_moves, sup)
-        elif np.any(status != 0):
+            self._learns = bool(learn)
+            what, value = self._ctrl.begin(self.stage, target.tolist(), bool(learn), fine_moves, sup, self._look)
+        elif np.any((status != 0) & ((status != 4) | self._learns)):
             self._ctrl.abort()
             self.done, self.outcome = True, {"aborted": "a light was not read"}
             return self._hold()
         else:
             reading = np.asarray(obs["lights"], dtype=np.float32).ravel()
-            what, value = self._ctrl.observe(reading.tolist())
+            what, value = self._ctrl.observe(reading.tolist(), self._look)
         if what == "move":
             self._pressures = np.asarray(value, dtype=np.float32)
         else:

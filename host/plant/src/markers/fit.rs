@@ -3,6 +3,7 @@
 //! and the standard error of a hidden marker placed from the body the readings determine.
 
 use nalgebra::{SMatrix, SVector};
+use rayon::prelude::*;
 
 use super::{Body, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
 use crate::camera::Camera;
@@ -107,9 +108,19 @@ impl Problem<'_> {
             .map(|(b, _)| b)
     }
 
-    /// The body each start leads to, with its cost.
+    /// The body each start leads to, with its cost, in the order of `starts`. Called on a
+    /// thread of rayon's pool (the arms of a vector environment, a study's runs), the starts
+    /// are solved in parallel on that pool: a move that must place a hidden light costs
+    /// several times one that need not, and a vector environment's step waits for its
+    /// slowest arm, whose starts the other threads can take. Elsewhere (one arm, one run)
+    /// they are solved in turn: handing them to the pool and waking it costs a single arm
+    /// more than it gains. Each solve is independent of the others, so the result is the
+    /// same bit for bit either way.
     pub(super) fn all(&self, starts: &[Body]) -> Vec<(Body, f64)> {
-        starts.iter().filter_map(|s| self.solve(*s)).collect()
+        if starts.len() < 2 || rayon::current_thread_index().is_none() {
+            return starts.iter().filter_map(|s| self.solve(*s)).collect();
+        }
+        starts.par_iter().filter_map(|s| self.solve(*s)).collect()
     }
 
     /// The largest reading residual of `b` (pixels).

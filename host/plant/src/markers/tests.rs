@@ -136,3 +136,44 @@ fn a_noise_free_camera_fills_a_hidden_light() {
     let off = (a.x - b.x).hypot(a.y - b.y);
     assert!(off <= tolerance_px(0.0), "{off} px off: {l:?}");
 }
+
+/// The fit's starts are solved in parallel on a thread of rayon's pool and in turn
+/// elsewhere (`fit::Problem::all`): the same fills, tracks and bodies bit for bit, for
+/// every pattern of hidden markers, with and without a track. Fails if the parallel path
+/// reorders the starts' bodies (the best of equal costs would differ) or drops one.
+#[test]
+fn the_fill_is_the_same_on_the_pool_and_off_it() {
+    let cfg = SimConfig::realistic();
+    let mut plant = Plant::new(&cfg, 5).unwrap();
+    let m = pose(&mut plant);
+    let fills = |plant: &Plant| {
+        let mut out = vec![];
+        for pattern in 0u32..64 {
+            let seen: [[bool; 2]; 3] = core::array::from_fn(|k| {
+                core::array::from_fn(|cam| pattern >> (2 * k + cam) & 1 == 1)
+            });
+            for by in [None, Some(Vector3::new(20.0, -10.0, 5.0))] {
+                let (mut l, mut c) = readings(plant, &m, seen);
+                let mut t = by.map_or_else(Tracker::default, |by| tracker(&m, &by));
+                let fill = plant.fill_markers(&mut l, &mut c, &[0, 1], &mut t);
+                out.push(format!("{fill:?} {l:?} {c:?} {t:?}"));
+            }
+        }
+        out
+    };
+    let off_pool = fills(&plant);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let on_pool = pool.install(|| {
+        assert!(rayon::current_thread_index().is_some());
+        fills(&plant)
+    });
+    assert_eq!(off_pool.len(), 128);
+    assert!(
+        off_pool.iter().any(|f| f.contains("Estimated")),
+        "{off_pool:?}"
+    );
+    assert_eq!(off_pool, on_pool);
+}

@@ -13,7 +13,6 @@ use trn_controller::Config;
 use trn_plant::{Plant, SimConfig};
 
 use crate::model_based::{ArmModel, ModelBased};
-use crate::spec::ControllerChoice;
 
 /// The nominal model: the arm at rest at the commanded pressures, loops of zero width.
 pub struct NominalModel {
@@ -41,8 +40,8 @@ impl ArmModel for NominalModel {
         false
     }
 
-    fn law(&self) -> ControllerChoice {
-        ControllerChoice::Model
+    fn law_code(&self) -> u8 {
+        crate::law_code::MODEL
     }
 
     /// The static map has no command steps: a small difference.
@@ -57,7 +56,7 @@ pub type NominalIk = ModelBased<NominalModel>;
 impl NominalIk {
     /// The reference for the simulated arm `sim`: its model is the same arm with loops of
     /// zero width, no drift and no wear.
-    pub fn new(sim: &SimConfig, cfg: Config) -> crate::Result<NominalIk> {
+    pub fn new(sim: &SimConfig, cfg: Config) -> Result<NominalIk, trn_plant::PlantError> {
         let mut nominal = sim.clone();
         for j in &mut nominal.joints {
             j.hysteresis_width = 0.0;
@@ -76,16 +75,16 @@ impl NominalIk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::Profile;
+    use crate::law_code;
     use trn_controller::presets::ImageSize;
     use trn_controller::{Command, Control, Error, FineMoves, Observation, Task};
 
     fn reference(sim: &SimConfig) -> NominalIk {
-        let profile = Profile {
-            law: ControllerChoice::Model,
-            ..Profile::DEFAULT
-        };
-        NominalIk::new(sim, profile.config(ImageSize::DEFAULT)).unwrap()
+        NominalIk::new(
+            sim,
+            trn_controller::presets::Profile::default().config(ImageSize::DEFAULT),
+        )
+        .unwrap()
     }
 
     /// On an arm without hysteresis (the model is then exact up to the settling left after
@@ -151,21 +150,18 @@ mod tests {
             law,
             image,
         };
-        for code in [
-            Law::Trn.code(),
-            Law::Broyden.code(),
-            ControllerChoice::Oracle.code(),
-        ] {
+        for code in [Law::Trn.code(), Law::Broyden.code(), law_code::ORACLE] {
             assert_eq!(
                 r.session_config(asked(code)),
                 Err(Error::UnsupportedLaw),
                 "law code {code}"
             );
         }
-        let (cfg, fp) = r
-            .session_config(asked(ControllerChoice::Model.code()))
-            .unwrap();
-        assert_eq!(cfg, Profile::DEFAULT.config(image));
+        let (cfg, fp) = r.session_config(asked(law_code::MODEL)).unwrap();
+        assert_eq!(
+            cfg,
+            trn_controller::presets::Profile::default().config(image)
+        );
         assert_eq!(fp, cfg.fingerprint_as(2));
         assert_ne!(fp, cfg.fingerprint());
         assert_eq!(r.fingerprint(), fp);

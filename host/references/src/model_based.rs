@@ -3,9 +3,9 @@
 //! [`Control`] seam, in the same CAN node, so it is scored exactly like the TRN and the
 //! Broyden servo; neither is a controller for the MCU (each carries the simulator).
 //!
-//! - [`crate::reference::NominalIk`] (`--controller model`): a perfectly calibrated model without hysteresis
+//! - [`crate::nominal::NominalIk`] (`--controller model`): a perfectly calibrated model without hysteresis
 //!   compensation: the arm's links, cameras and each joint's pressure-to-angle curve, but
-//!   loops of zero width, no drift, no wear, no dynamics ([`crate::reference`]).
+//!   loops of zero width, no drift, no wear, no dynamics ([`crate::nominal`]).
 //! - [`crate::oracle::Oracle`] (`--controller oracle`): the physical limit: it solves on an
 //!   exact copy of the plant as it is now (hysteresis history, drift, wear), so that only
 //!   process noise, creep and camera noise stand between it and the target.
@@ -21,8 +21,6 @@ use trn_controller::stage::{StageOutcome, TRACE_LEN, ZERO_OUTCOME};
 use trn_controller::{
     Command, Config, Control, Error, FineMoves, Law, Observation, ObserveKind, Outcome, Task,
 };
-
-use crate::spec::{ControllerChoice, Profile};
 
 /// Levenberg-Marquardt iterations of a solve, at most.
 const IK_ITERATIONS: usize = 60;
@@ -63,8 +61,9 @@ pub trait ArmModel {
     /// True when a fine move is a new solve on the model (it knows the arm's state after the
     /// move); false: one Gauss-Newton step with the observed error.
     fn resolves(&self) -> bool;
-    /// The host-side controller this model runs as (its law code on the wire).
-    fn law(&self) -> ControllerChoice;
+    /// The host-side controller this model runs as: its law code on the wire
+    /// ([`crate::law_code`]).
+    fn law_code(&self) -> u8;
     /// The finite-difference step of the model's Jacobian (normalised pressure): at least a
     /// step of the servo drives' 12-bit command where the model goes through them.
     fn step_size(&self) -> f64;
@@ -88,6 +87,12 @@ impl<A: ArmModel> ModelBased<A> {
             held: [0.0; 5],
             trial: None,
         }
+    }
+
+    /// The model it solves on (the Python binding hands the oracle's model the arm's plant
+    /// before each decision).
+    pub fn model_mut(&mut self) -> &mut A {
+        &mut self.model
     }
 
     fn limit(&self) -> f64 {
@@ -427,23 +432,23 @@ impl<A: ArmModel> Control for ModelBased<A> {
         Ok(())
     }
 
-    /// Its own law code only: the profile's configuration ([`Profile::config`]),
-    /// fingerprinted with that code.
+    /// Its own law code only: the configuration of the asked preset and ablation with the
+    /// TRN's law (of which it uses the stop rule), fingerprinted with its own code.
     fn session_config(&self, asked: SessionProfile) -> trn_controller::Result<(Config, u32)> {
-        if asked.law != self.model.law().code() {
+        if asked.law != self.model.law_code() {
             return Err(Error::UnsupportedLaw);
         }
-        let profile = Profile {
+        let cfg = trn_controller::presets::Profile {
             preset: asked.preset,
             ablation: asked.ablation,
-            law: self.model.law(),
-        };
-        let cfg = profile.config(asked.image);
-        Ok((cfg, profile.fingerprint_of(&cfg)))
+            law: Law::Trn,
+        }
+        .config(asked.image);
+        Ok((cfg, cfg.fingerprint_as(self.model.law_code())))
     }
 
     fn fingerprint(&self) -> u32 {
-        self.cfg.fingerprint_as(self.model.law().code())
+        self.cfg.fingerprint_as(self.model.law_code())
     }
 
     /// Nothing to draw: the model is the calibration.
