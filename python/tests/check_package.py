@@ -111,13 +111,20 @@ def controllers():
         assert broyden.done and len(infos) >= 2, broyden.outcome
         assert broyden.outcome.get("stage1") is not None
 
-    @check("laws the binding cannot serve are refused, naming the law")
+    @check("the calibrated model and the oracle on an environment's arm; other laws refused")
     def _():
-        for law in ("model", "oracle", "trm"):
+        # no termination by the environment: the controllers stop by their own rule
+        env = SoftArmEnv(max_moves=10, tolerance_px=0.0)
+        for law, fine in (("model", 2.0), ("oracle", 1.0)):
+            ctrl = Controller(law, env=env)
+            infos = run_episode(env, ctrl, seed=5, learn=False)
+            assert ctrl.done and ctrl.outcome["stage1"]["fine_moves"] <= 8, ctrl.outcome
+            assert infos[-1]["error_true_px"] < 3.0 * fine, (law, infos[-1]["error_true_px"])
+        for law, says in (("model", "pass env="), ("oracle", "pass env="), ("trm", '"trn", "broyden", "model" and "oracle"')):
             try:
                 Controller(law)
             except ValueError as e:
-                assert law in str(e) and '"trn" and "broyden"' in str(e), e
+                assert law in str(e) and says in str(e), e
             else:
                 raise AssertionError(f"Controller({law!r}) was accepted")
 
