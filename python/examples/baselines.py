@@ -112,17 +112,6 @@ def train_ppo(stage, steps, seed):
     return act, seconds
 
 
-def stop_tolerance(env, trn, stage):
-    """The tolerance the frozen TRN stops at (its mature one), which success is measured
-    against: from a trial of the coarse move alone (one whose light was lost is skipped)."""
-    for seed in range(HELD_OUT, HELD_OUT + 100):
-        run_episode(env, trn, seed=seed, learn=False, fine_moves=0)
-        outcome = (trn.outcome or {}).get(f"stage{stage}")
-        if outcome is not None:
-            return outcome["tolerance_px"]
-    raise RuntimeError("no trial of the TRN ended: its tolerance is unknown")
-
-
 def stage_rows(stage, a, rl):
     env = SoftArmEnv(config="realistic", stage=stage, max_moves=BUDGET, tolerance_px=0.0)
     joints = 5 if stage == 1 else 3
@@ -132,7 +121,7 @@ def stage_rows(stage, a, rl):
     for episode in range(a.train):
         run_episode(env, trn, seed=episode, learn=True)
     train_s = time.perf_counter() - t0
-    tolerance = stop_tolerance(env, trn, stage)
+    tolerance = trn.tolerance_px
 
     broyden = Controller("broyden", stage=stage)
     model = Controller("model", env=env)

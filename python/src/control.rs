@@ -36,11 +36,11 @@ impl Inner {
         }
     }
 
-    fn busy(&self) -> bool {
+    fn control_ref(&self) -> &dyn Control {
         match self {
-            Inner::Core(c) => c.busy(),
-            Inner::Model(c) => c.busy(),
-            Inner::Oracle(c) => c.busy(),
+            Inner::Core(c) => c.as_ref(),
+            Inner::Model(c) => c.as_ref(),
+            Inner::Oracle(c) => c.as_ref(),
         }
     }
 
@@ -199,7 +199,7 @@ impl Ctrl {
         supervised: Option<Vec<f32>>,
         arm: Option<PyRef<'_, Arm>>,
     ) -> PyResult<(String, Bound<'py, PyAny>)> {
-        if self.ctrl.busy() {
+        if self.ctrl.control_ref().busy() {
             self.ctrl.control().abort();
         }
         let supervised = supervised
@@ -253,13 +253,24 @@ impl Ctrl {
     /// True while a trial runs.
     #[getter]
     fn busy(&self) -> bool {
-        self.ctrl.busy()
+        self.ctrl.control_ref().busy()
     }
 
     /// The control law's name.
     #[getter]
     fn law(&self) -> &'static str {
         self.law
+    }
+
+    /// The tolerance (pixels) at which a trial of `stage` (1 or 2) that does not learn
+    /// stops: the configuration's mature tolerance.
+    fn mature_tolerance_px(&self, stage: u8) -> PyResult<f32> {
+        let cfg = self.ctrl.control_ref().config();
+        match stage {
+            1 => Ok(cfg.stage1.mature_tolerance),
+            2 => Ok(cfg.stage2.mature_tolerance),
+            _ => Err(PyValueError::new_err(format!("stage {stage}: 1 or 2"))),
+        }
     }
 }
 

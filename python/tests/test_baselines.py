@@ -45,6 +45,21 @@ def test_the_oracle_lands_where_the_model_needs_fine_moves(stage):
     assert coarse.outcome[f"stage{stage}"]["coarse_error_px"] > 10.0, coarse.outcome
 
 
+@pytest.mark.parametrize("stage", [1, 2])
+def test_the_tolerance_is_the_one_a_trial_stops_at(stage):
+    """``Controller.tolerance_px`` is the tolerance a trial that does not learn reports (the
+    baseline table measures success against it): the preset's, per stage, for every law.
+    Fails if it read the other stage's value or a learning schedule's."""
+    env = SoftArmEnv(config="ideal", stage=stage)
+    trn = Controller("trn", stage=stage, seed=1)
+    run_episode(env, trn, seed=3, learn=False, fine_moves=0)
+    assert trn.tolerance_px == trn.outcome[f"stage{stage}"]["tolerance_px"] == (1.5 if stage == 1 else 1.0)
+    assert Controller("trn", stage=stage, preset="paper").tolerance_px == pytest.approx(0.1)
+    assert Controller("model", env=env).tolerance_px == trn.tolerance_px
+    with pytest.raises(ValueError, match="stage 3"):
+        trn._ctrl.mature_tolerance_px(3)
+
+
 def test_the_references_need_an_arm():
     env = SoftArmEnv(stage=2)
     with pytest.raises(ValueError, match="pass env="):

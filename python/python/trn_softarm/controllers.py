@@ -52,6 +52,12 @@ class Controller:
         self.joints = 5 if stage == 1 else 3
         self.reset()
 
+    @property
+    def tolerance_px(self):
+        """The error (pixels) within which a trial that does not learn stops: the
+        configuration's mature tolerance for this controller's stage."""
+        return self._ctrl.mature_tolerance_px(self.stage)
+
     def reset(self):
         """Starts a new trial at the next ``act``."""
         self._ctrl.abort()
