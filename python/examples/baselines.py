@@ -199,8 +199,10 @@ def main():
         "",
     ]
     if rl["seeds"] == 0:
-        if a.rl_steps == 0 or a.rl_seeds == 0:
-            why = "--rl-steps 0" if a.rl_steps == 0 else "--rl-seeds 0"
+        if a.rl_steps == 0:
+            why = "--rl-steps 0"
+        elif a.rl_seeds == 0:
+            why = "--rl-seeds 0"
         else:
             why = "stable-baselines3 is not installed"
         lines += [f"No reinforcement-learning rows in this run: {why}.", ""]
