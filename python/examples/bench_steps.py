@@ -1,12 +1,13 @@
 """Environment steps per second: SoftArm-v0 (the lab's plant, and the ``dt_s`` option),
 single and as the native vector env, beside MuJoCo's Reacher-v5 when MuJoCo is installed.
 
-    python python/examples/bench_steps.py [--seconds 3] [--num-envs 2] [--frames] [--out FILE.md]
+    python python/examples/bench_steps.py [--seconds 3] [--rounds 3] [--num-envs 2] [--frames] [--out FILE.md]
 
 Random actions, episodes reset as they end (the reset counts: it is part of stepping an
 environment); each figure is environment steps (moves) per second of wall-clock time in
 this process. The single and vector figures are measured in one run, so they compare on
-one machine under one load. ``--frames`` adds a row with the camera frames in the
+one machine under one load: each row is measured ``--rounds`` times, the rows taking turns,
+and the table gives each row's median (and its lowest and highest round). ``--frames`` adds a row with the camera frames in the
 observation (``frames=True``, the default ``frame_scale``). A second table gives one native
 arm's move time alone (mean and percentiles), with and without ``dt_s``.
 """
@@ -69,41 +70,55 @@ def step_times(dt_s, steps=2000, episode=20, seed=0):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=3.0, help="per measurement")
+    ap.add_argument("--rounds", type=int, default=3, help="measurements of each row, taking turns")
     ap.add_argument("--num-envs", type=int, default=2, help="arms of the vector env")
     ap.add_argument("--fast-dt", type=float, default=0.01, help="dt_s of the fast rows")
     ap.add_argument("--frames", action="store_true", help="also SoftArm-v0 with frames=True")
     ap.add_argument("--out", help="also write the table here (markdown)")
     a = ap.parse_args()
     s, n, fast = a.seconds, a.num_envs, {"dt_s": a.fast_dt}
+    if s <= 0 or a.rounds < 1 or n < 1:
+        ap.error("--seconds must be positive, --rounds and --num-envs at least 1")
     sid = "trn_softarm/SoftArm-v0"
-    rows = []
+    # (environment, mode, a function measuring it once)
+    plan = []
     try:
         import mujoco  # noqa: F401
 
-        rows.append(("Reacher-v5", "single", single(gym.make("Reacher-v5"), s)))
-        rows.append(("Reacher-v5", f"sync x{n}", vector(gym.make_vec("Reacher-v5", num_envs=n, vectorization_mode="sync"), s)))
+        plan.append(("Reacher-v5", "single", lambda: single(gym.make("Reacher-v5"), s)))
+        plan.append(("Reacher-v5", f"sync x{n}",
+                     lambda: vector(gym.make_vec("Reacher-v5", num_envs=n, vectorization_mode="sync"), s)))
     except ImportError:
         print("MuJoCo is not installed: Reacher-v5 not measured (pip install 'gymnasium[mujoco]')")
-    rows.append(("SoftArm-v0", "single", single(gym.make(sid), s)))
-    rows.append(("SoftArm-v0", f"native x{n}", vector(gym.make_vec(sid, num_envs=n), s)))
-    rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", "single", single(gym.make(sid, **fast), s)))
-    rows.append((f"SoftArm-v0 dt_s={a.fast_dt}", f"native x{n}", vector(gym.make_vec(sid, num_envs=n, **fast), s)))
+    plan.append(("SoftArm-v0", "single", lambda: single(gym.make(sid), s)))
+    plan.append(("SoftArm-v0", f"native x{n}", lambda: vector(gym.make_vec(sid, num_envs=n), s)))
+    plan.append((f"SoftArm-v0 dt_s={a.fast_dt}", "single", lambda: single(gym.make(sid, **fast), s)))
+    plan.append((f"SoftArm-v0 dt_s={a.fast_dt}", f"native x{n}",
+                 lambda: vector(gym.make_vec(sid, num_envs=n, **fast), s)))
     if a.frames:
-        rows.append(("SoftArm-v0 frames=True", "single", single(gym.make(sid, frames=True), s)))
+        plan.append(("SoftArm-v0 frames=True", "single", lambda: single(gym.make(sid, frames=True), s)))
+    runs = [[] for _ in plan]
+    for _ in range(a.rounds):
+        for k, (_, _, measure) in enumerate(plan):
+            runs[k].append(measure())
+    rows = [(env, mode, float(np.median(r))) for (env, mode, _), r in zip(plan, runs)]
+    spread = {(env, mode): (min(r), max(r)) for (env, mode, _), r in zip(plan, runs)}
     ref = {mode.split()[0]: r for env, mode, r in rows if env == "Reacher-v5"}
     singles = {env: r for env, mode, r in rows if mode == "single"}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     lines = [
-        f"{os.cpu_count()} cores, load average {load:.1f} at the end, {s:g} s a row,"
+        f"{os.cpu_count()} cores, load average {load:.1f} at the end, {s:g} s a measurement,"
+        f" {a.rounds} rounds of every row taking turns (the median; lowest and highest round),"
         f" {n} environments a vector; random actions, resets included.",
         "",
-        "| environment | mode | steps/s | x its single | x Reacher-v5 (same mode) |",
-        "|---|---|---:|---:|---:|",
+        "| environment | mode | steps/s | rounds | x its single | x Reacher-v5 (same mode) |",
+        "|---|---|---:|---:|---:|---:|",
     ]
     for env, mode, r in rows:
         kind = mode.split()[0]
         vs_ref = ref.get("sync" if kind == "native" else kind)
-        lines.append(f"| {env} | {mode} | {r:,.0f} | {r / singles[env]:.2f} | "
+        lo, hi = spread[(env, mode)]
+        lines.append(f"| {env} | {mode} | {r:,.0f} | {lo:,.0f} to {hi:,.0f} | {r / singles[env]:.2f} | "
                      + (f"{r / vs_ref:.3f} |" if vs_ref else "- |"))
     lines += [
         "",
@@ -121,7 +136,8 @@ def main():
     if a.out:
         with open(a.out, "w") as f:
             f.write("# Environment steps per second\n\nWritten by `python python/examples/bench_steps.py"
-                    f" --seconds {s:g} --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5 in one run).\n\n")
+                    f" --seconds {s:g} --rounds {a.rounds} --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5"
+                    " in one run).\n\n")
             f.write("\n".join(lines) + "\n")
 
 if __name__ == "__main__":

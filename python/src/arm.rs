@@ -1,6 +1,5 @@
 //! [`Arm`]: the simulated SoftArm as the core of a reaching environment, as the lab's
-//! held-out evaluation sets a trial up; [`ArmVec`]: many of them stepped in one call, on a
-//! thread pool, without the GIL.
+//! held-out evaluation sets a trial up (many of them stepped in one call: `crate::arm_vec`).
 //!
 //! `reset(seed)` builds the plant from `seed`, draws a deployment-style target (a twin arm
 //! in the same state goes from rest along its own random path to random pressures; its
@@ -22,9 +21,9 @@
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use pyo3::IntoPyObjectExt;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trn_plant::camera::Camera;
 use trn_plant::kinematics::{forward, lights};
@@ -250,6 +249,17 @@ impl Sim {
         }
     }
 
+    /// The last reading: pixels, status codes, and the target as measured.
+    pub(crate) fn observation(&self) -> (&[f64], &[u8], Vec<f64>) {
+        (&self.lights, &self.status, self.target_of().0)
+    }
+
+    /// Whether `reset(seed)` gives the same arm whatever this one went through (a
+    /// persistent arm carries its plant over instead).
+    pub(crate) fn resets_afresh(&self) -> bool {
+        !self.options.persistent
+    }
+
     /// A new episode from `seed` (see the module).
     pub fn reset(&mut self, seed: u64) -> Result<(), String> {
         if !(self.options.persistent && self.started) {
@@ -331,47 +341,90 @@ impl Sim {
         }
     }
 
-    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    pub(crate) fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (key, value) in self.info_values() {
+            d.set_item(key, value.into_py(py)?)?;
+        }
+        Ok(d)
+    }
+
+    /// The info's keys and values, in the info's order.
+    pub(crate) fn info_values(&self) -> Vec<(&'static str, InfoValue)> {
+        use InfoValue::*;
         let (target, target_true) = self.target_of();
         let t = &self.truth;
-        let d = PyDict::new(py);
         let valid = self.status.iter().all(|&s| s == 0);
-        d.set_item("error_px", valid.then(|| dist(&self.lights, &target)))?;
-        d.set_item(
-            "error_true_px",
-            t.in_view
-                .iter()
-                .all(|&v| v)
-                .then(|| dist(&t.lights_true, &target_true)),
-        )?;
-        d.set_item("lights_true", t.lights_true.clone())?;
-        d.set_item("lights_true_in_view", t.in_view.clone())?;
-        d.set_item("target_true", target_true)?;
-        d.set_item("pressures", self.commanded.to_vec())?;
-        d.set_item("joint_angles_deg", t.joint_angles_deg.to_vec())?;
-        d.set_item("gripper_mm", <[f64; 3]>::from(t.gripper_mm))?;
-        d.set_item(
-            "target_gripper_mm",
-            <[f64; 3]>::from(self.target.pose.centre_mm),
-        )?;
-        d.set_item("pose_error_mm", t.pose_error_mm as f64)?;
-        d.set_item("pose_error_deg", t.pose_error_deg as f64)?;
-        d.set_item(
-            "noise_floor_px",
-            if self.stage == 1 {
-                self.target.noise_v
-            } else {
-                self.target.noise_c
-            } as f64,
-        )?;
-        d.set_item("time_s", self.plant.time_s())?;
-        d.set_item("moves", self.moves)?;
-        d.set_item("plant_seed", self.plant_seed)?;
-        Ok(d)
+        let in_view = t.in_view.iter().all(|&v| v);
+        let noise_floor_px = if self.stage == 1 {
+            self.target.noise_v
+        } else {
+            self.target.noise_c
+        } as f64;
+        vec![
+            (
+                "error_px",
+                Maybe(valid.then(|| dist(&self.lights, &target))),
+            ),
+            (
+                "error_true_px",
+                Maybe(in_view.then(|| dist(&t.lights_true, &target_true))),
+            ),
+            ("lights_true", Points(t.lights_true.clone())),
+            ("lights_true_in_view", Flags(t.in_view.clone())),
+            ("target_true", Points(target_true)),
+            (
+                "pressures",
+                Floats(self.commanded.iter().map(|&p| p as f64).collect()),
+            ),
+            ("joint_angles_deg", Floats(t.joint_angles_deg.to_vec())),
+            (
+                "gripper_mm",
+                Floats(<[f64; 3]>::from(t.gripper_mm).to_vec()),
+            ),
+            (
+                "target_gripper_mm",
+                Floats(<[f64; 3]>::from(self.target.pose.centre_mm).to_vec()),
+            ),
+            ("pose_error_mm", Scalar(t.pose_error_mm as f64)),
+            ("pose_error_deg", Scalar(t.pose_error_deg as f64)),
+            ("noise_floor_px", Scalar(noise_floor_px)),
+            ("time_s", Scalar(self.plant.time_s())),
+            ("moves", Count(self.moves as u64)),
+            ("plant_seed", Count(self.plant_seed)),
+        ]
     }
 }
 
-fn value_err(e: String) -> PyErr {
+/// A value of an arm's info (its Python type in `Arm.info()`).
+pub(crate) enum InfoValue {
+    /// A float.
+    Scalar(f64),
+    /// A float, or None (an error that a light not read leaves undefined).
+    Maybe(Option<f64>),
+    /// A list of floats.
+    Floats(Vec<f64>),
+    /// A list of floats, x and y of each point in turn.
+    Points(Vec<f64>),
+    /// A list of bools.
+    Flags(Vec<bool>),
+    /// An int.
+    Count(u64),
+}
+
+impl InfoValue {
+    fn into_py<'py>(self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match self {
+            InfoValue::Scalar(x) => x.into_bound_py_any(py),
+            InfoValue::Maybe(x) => x.into_bound_py_any(py),
+            InfoValue::Floats(v) | InfoValue::Points(v) => v.into_bound_py_any(py),
+            InfoValue::Flags(v) => v.into_bound_py_any(py),
+            InfoValue::Count(n) => n.into_bound_py_any(py),
+        }
+    }
+}
+
+pub(crate) fn value_err(e: String) -> PyErr {
     PyValueError::new_err(e)
 }
 
@@ -459,8 +512,8 @@ impl Arm {
     /// The last reading: pixels (x, y of each light in camera 0 then 1), status codes, and
     /// the target as measured.
     fn observation(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
-        let s = &self.sim;
-        (s.lights.clone(), s.status.clone(), s.target_of().0)
+        let (xy, status, target) = self.sim.observation();
+        (xy.to_vec(), status.to_vec(), target)
     }
 
     /// The cameras' frames of the arm's lights now (see `Sim::frames`): `(width, height,
@@ -558,126 +611,6 @@ impl Arm {
 #[pyfunction]
 pub fn arm_from_state(state: &[u8]) -> PyResult<Arm> {
     Arm::from_state(state)
-}
-
-/// `n` arms of one configuration stepped together: every call runs the arms on a thread
-/// pool with the GIL released (rayon's, as many threads as cores). Arm `i` is reset or
-/// stepped exactly as an [`Arm`] would be with the same seeds and actions.
-#[pyclass(module = "trn_softarm._native")]
-pub struct ArmVec {
-    sims: Vec<Sim>,
-}
-
-/// What one arm of an [`ArmVec`] does in a call.
-enum Work {
-    Reset(u64),
-    Step(Vec<f32>),
-}
-
-/// Runs `f` on every arm whose `work` is `Some`, in parallel, and returns the first error.
-fn run_all<W: Sync>(
-    py: Python<'_>,
-    sims: &mut [Sim],
-    work: &[Option<W>],
-    f: impl Fn(&mut Sim, &W) -> Result<(), String> + Sync,
-) -> PyResult<()> {
-    if work.len() != sims.len() {
-        return Err(PyValueError::new_err(format!(
-            "{} arms, {} entries given",
-            sims.len(),
-            work.len()
-        )));
-    }
-    py.detach(|| {
-        sims.par_iter_mut()
-            .zip(work.par_iter())
-            .map(|(s, w)| match w {
-                Some(w) => f(s, w),
-                None => Ok(()),
-            })
-            .collect::<Result<Vec<()>, String>>()
-    })
-    .map(|_| ())
-    .map_err(value_err)
-}
-
-#[pymethods]
-impl ArmVec {
-    /// `n` arms, each as `Arm(config, stage, dt_s, persistent, randomise)`.
-    #[new]
-    #[pyo3(signature = (n, config = "realistic", stage = 1, dt_s = None, persistent = false, randomise = 0.0))]
-    fn new(
-        n: usize,
-        config: &str,
-        stage: u8,
-        dt_s: Option<f64>,
-        persistent: bool,
-        randomise: f64,
-    ) -> PyResult<ArmVec> {
-        if n == 0 {
-            return Err(PyValueError::new_err("at least one arm"));
-        }
-        let options = Options {
-            dt_s,
-            persistent,
-            randomise,
-        };
-        let sim = Sim::new(resolve(config)?, stage, options).map_err(value_err)?;
-        Ok(ArmVec { sims: vec![sim; n] })
-    }
-
-    /// Number of arms.
-    fn __len__(&self) -> usize {
-        self.sims.len()
-    }
-
-    /// Resets arm `i` from `seeds[i]` and steps it by `actions[i]` where given (`None`
-    /// leaves it as it is; an arm given both is reset). All at once, in parallel.
-    fn run(
-        &mut self,
-        py: Python<'_>,
-        seeds: Vec<Option<u64>>,
-        actions: Vec<Option<Vec<f32>>>,
-    ) -> PyResult<()> {
-        if seeds.len() != actions.len() {
-            return Err(PyValueError::new_err(
-                "one seed or None and one action or None an arm",
-            ));
-        }
-        let work: Vec<Option<Work>> = seeds
-            .into_iter()
-            .zip(actions)
-            .map(|(s, a)| match (s, a) {
-                (Some(seed), _) => Some(Work::Reset(seed)),
-                (None, Some(a)) => Some(Work::Step(a)),
-                (None, None) => None,
-            })
-            .collect();
-        run_all(py, &mut self.sims, &work, |sim, w| match w {
-            Work::Reset(seed) => sim.reset(*seed),
-            Work::Step(a) => sim.step(a),
-        })
-    }
-
-    /// Every arm's last reading, as `Arm.observation()` gives one, concatenated: pixels,
-    /// status codes, targets.
-    fn observations(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
-        let (mut xy, mut st, mut tg) = (Vec::new(), Vec::new(), Vec::new());
-        for s in &self.sims {
-            xy.extend_from_slice(&s.lights);
-            st.extend_from_slice(&s.status);
-            tg.extend(s.target_of().0);
-        }
-        (xy, st, tg)
-    }
-
-    /// Arm `i`'s info, as `Arm.info()` gives it.
-    fn info<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyDict>> {
-        self.sims
-            .get(i)
-            .ok_or_else(|| PyValueError::new_err(format!("no arm {i}")))?
-            .info(py)
-    }
 }
 
 /// The cameras of a named plant (or a TOML file) as ideal pinholes (`trn_plant::camera::Pinhole`:

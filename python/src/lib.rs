@@ -2,7 +2,8 @@
 //!
 //! - [`arm::Arm`]: the simulated SoftArm as an environment's core (a seeded plant, a
 //!   deployment-style target, moves read by the camera processor's vision), with the
-//!   pictures of both cameras ([`render`]).
+//!   pictures of both cameras ([`render`]); [`arm_vec::ArmVec`]: many stepped in one call,
+//!   each arm's next episode built ahead.
 //! - [`control::Ctrl`]: the TRN or the Broyden servo on plain lists of floats: a task in,
 //!   pressures out, observations in; the calibrated model and the oracle (`trn-references`)
 //!   behind the same calls.
@@ -16,6 +17,7 @@
 use pyo3::prelude::*;
 
 mod arm;
+mod arm_vec;
 mod control;
 mod decode;
 mod fields;
@@ -27,7 +29,7 @@ mod render;
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<arm::Arm>()?;
-    m.add_class::<arm::ArmVec>()?;
+    m.add_class::<arm_vec::ArmVec>()?;
     m.add_function(wrap_pyfunction!(arm::arm_from_state, m)?)?;
     m.add_class::<control::Ctrl>()?;
     m.add_function(wrap_pyfunction!(decode::decode_frames, m)?)?;

@@ -9,6 +9,7 @@ README says, and the flat observation suits SB3's VecNormalize (when SB3 is inst
 import copy
 import importlib.util
 import pickle
+import time
 
 import numpy as np
 import pytest
@@ -128,6 +129,60 @@ def test_native_vector_env_steps_as_sync_vector_env(stage):
     assert data_equivalence(a[0]["target"][[0, 2]], b[0]["target"][[0, 2]], exact=True)
     with pytest.raises(ValueError):
         native.step(np.zeros((2, native.single_action_space.shape[0])))
+
+
+@pytest.mark.parametrize("persistent", [False, True])
+def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persistent):
+    kw = dict(config="ideal", max_moves=2, persistent=persistent)
+    native = SoftArmVectorEnv(num_envs=2, **kw)
+    sync = gym.vector.SyncVectorEnv([lambda: SoftArmEnv(**kw) for _ in range(2)])
+    assert data_equivalence(native.reset(seed=3), sync.reset(seed=3), exact=True)
+    resets = 0
+    for actions in random_actions(native.action_space, 9, seed=4):
+        # a persistent arm's next episode depends on this one: nothing is built for it;
+        # otherwise wait until every arm's is built, so that each reset takes it
+        deadline = time.monotonic() + 60
+        while not persistent and native._arms.ready_ahead < 2 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        ending = native._autoreset.copy()
+        a, b = native.step(actions), sync.step(actions)
+        assert data_equivalence(a, b, exact=True), (a, b)
+        resets += int(ending.sum())
+    assert resets >= 4, "every episode ends after two moves and resets on the next step"
+    assert native._arms.resets_built_ahead == (0 if persistent else resets)
+
+
+def test_batched_infos_are_gymnasiums_for_any_first_arm():
+    # what Gymnasium's VectorEnv._add_info makes of the arms' infos one after the other,
+    # where the first arm's value sets each key's type: a None first gives objects, a None
+    # after a float NaN
+    arms = [
+        {"error_px": None, "error_true_px": 0.5, "moves": 3, "pressures": [0.25, -1.0], "lights_true_in_view": [True]},
+        {"error_px": 2.0, "error_true_px": None, "moves": 4, "pressures": [0.5, 1.0], "lights_true_in_view": [False]},
+    ]
+    f64 = lambda v: bytearray(np.array(v, dtype=np.float64).tobytes())
+    batch = [
+        ("error_px", "maybe", f64([np.nan, 2.0]), True),
+        ("error_true_px", "maybe", f64([0.5, np.nan]), False),
+        ("moves", "count", bytearray(np.array([3, 4], dtype=np.int64).tobytes()), False),
+        ("pressures", "floats", f64([0.25, -1.0, 0.5, 1.0]), False),
+        ("lights_true_in_view", "flags", bytearray([1, 0]), False),
+    ]
+    envs = SoftArmVectorEnv(num_envs=2)
+    expected = {}
+    for i, info in enumerate(arms):
+        info = {k: np.asarray(v) if isinstance(v, list) else v for k, v in info.items()}
+        expected = envs._add_info(expected, info, i)
+    got = trn_softarm.env._Layout.batch_infos(batch, 2)
+    assert list(got) == list(expected)
+    for key, want in expected.items():
+        have = got[key]
+        assert have.dtype == want.dtype and have.shape == want.shape, key
+        if want.dtype == object:
+            assert have.tolist() == want.tolist(), key
+        else:
+            assert np.array_equal(have, want, equal_nan=want.dtype.kind == "f"), key
+    assert got["error_px"].tolist() == [None, 2.0] and np.isnan(got["error_true_px"][1])
 
 
 def test_a_bad_action_is_a_value_error():

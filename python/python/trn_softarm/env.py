@@ -74,9 +74,9 @@ class _Layout:
         self.tolerance_px = float(tolerance_px)
         self.max_moves = int(max_moves)
 
-    def obs(self, lights, status, target, batch=None):
-        """An observation (``batch``: of that many arms, stacked) from the native lists."""
-        shape = (self.n, 2) if batch is None else (batch, self.n, 2)
+    def obs(self, lights, status, target):
+        """An observation from the native lists (``Arm.observation()``)."""
+        shape = (self.n, 2)
         clip = lambda v: np.clip(np.asarray(v, dtype=np.float32).reshape(shape), self.low, self.high)
         return {
             "lights": clip(lights),
@@ -84,22 +84,70 @@ class _Layout:
             "target": clip(target),
         }
 
+    # the info's keys whose values are points (x, y)
+    POINTS = ("lights_true", "target_true")
+
     @staticmethod
     def info(info):
         n = len(info["lights_true"]) // 2
-        info["lights_true"] = np.asarray(info["lights_true"], dtype=np.float64).reshape(n, 2)
-        info["target_true"] = np.asarray(info["target_true"], dtype=np.float64).reshape(n, 2)
+        for k in _Layout.POINTS:
+            info[k] = np.asarray(info[k], dtype=np.float64).reshape(n, 2)
         for k in ("lights_true_in_view", "pressures", "joint_angles_deg", "gripper_mm", "target_gripper_mm"):
             info[k] = np.asarray(info[k])
         return info
 
     def outcome(self, info):
         """reward, terminated, truncated of a move whose info is ``info``."""
-        err = info["error_px"]
+        return self.outcome_of(info["error_px"], info["moves"])
+
+    def outcome_of(self, err, moves):
+        """reward, terminated, truncated of a move with measured error ``err`` (None when
+        a reading is not valid), the episode's ``moves``-th."""
         reward = -float(err) if err is not None else -self.diagonal
         terminated = err is not None and err <= self.tolerance_px
-        truncated = not terminated and info["moves"] >= self.max_moves
+        truncated = not terminated and moves >= self.max_moves
         return reward, terminated, truncated
+
+    def batch_obs(self, lights, status, target, n):
+        """The observation of ``n`` arms, stacked, from the native
+        ``ArmVec.observation_batch()``: each arm's as ``obs`` makes it."""
+        shape = (n, self.n, 2)
+
+        def clip(data):
+            v = np.frombuffer(data, dtype=np.float32).reshape(shape)
+            return np.minimum(np.maximum(v, self.low, out=v), self.high, out=v)
+
+        return {
+            "lights": clip(lights),
+            "status": np.frombuffer(status, dtype=np.uint8).astype(np.int64).reshape(shape[:-1]),
+            "target": clip(target),
+        }
+
+    @staticmethod
+    def batch_infos(batch, n):
+        """The infos of ``n`` arms as Gymnasium's vector environments give them
+        (``VectorEnv._add_info`` for each arm in turn, every arm present: each key an
+        array over the arms of the first arm's type, a None among floats NaN, and its mask
+        ``_key``), from the native ``ArmVec.info_batch()``: one array a key from its bytes."""
+        infos = {}
+        masks = np.ones((len(batch), n), dtype=np.bool_)
+        for k, (key, kind, data, first_none) in enumerate(batch):
+            if kind == "flags":
+                array = np.frombuffer(data, dtype=np.bool_).reshape(n, -1)
+            elif kind == "count":
+                array = np.frombuffer(data, dtype=np.int64)
+            else:
+                array = np.frombuffer(data, dtype=np.float64)
+                if kind == "floats":
+                    array = array.reshape(n, -1)
+                elif kind == "points":
+                    array = array.reshape(n, -1, 2)
+                elif first_none:
+                    # the first arm's None makes it an array of objects
+                    array = np.array([None if v != v else v for v in array.tolist()], dtype=object)
+            infos[key] = array
+            infos["_" + key] = masks[k]
+        return infos
 
 
 def _arm_seed(rng):
@@ -295,15 +343,29 @@ class SoftArmVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = None
         self._rngs = [None] * self.num_envs
+        # each arm's next seed, drawn ahead (see _build_ahead)
+        self._ahead = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
 
     def _seed_for(self, i, seed=None):
         if seed is not None or self._rngs[i] is None:
             self._rngs[i], _ = seeding.np_random(seed)
+            self._ahead[i] = None
+        if self._ahead[i] is not None:
+            drawn, self._ahead[i] = self._ahead[i], None
+            return drawn
         return _arm_seed(self._rngs[i])
 
+    def _build_ahead(self, arms):
+        """Draws the seed of each arm's next reset now (nothing else draws from an arm's
+        generator, so it is the seed that reset would draw) and has the native side build
+        that episode meanwhile, in the cores' idle time."""
+        for i in arms:
+            self._ahead[i] = _arm_seed(self._rngs[i])
+            self._arms.prepare(int(i), self._ahead[i])
+
     def _obs(self):
-        return self._layout.obs(*self._arms.observations(), batch=self.num_envs)
+        return self._layout.batch_obs(*self._arms.observation_batch(), self.num_envs)
 
     def reset(self, *, seed=None, options=None):
         """Resets every arm (or those of ``options["reset_mask"]``); ``seed``: an int (arm
@@ -319,6 +381,7 @@ class SoftArmVectorEnv(VectorEnv):
             mask = np.asarray(options["reset_mask"], dtype=np.bool_)
         arm_seeds = [self._seed_for(i, seeds[i]) if mask[i] else None for i in range(self.num_envs)]
         self._arms.run(arm_seeds, [None] * self.num_envs)
+        self._build_ahead(np.flatnonzero(mask))
         infos = {}
         for i in np.flatnonzero(mask):
             infos = self._add_info(infos, _Layout.info(self._arms.info(int(i))), int(i))
@@ -331,15 +394,16 @@ class SoftArmVectorEnv(VectorEnv):
         seeds = [self._seed_for(i) if self._autoreset[i] else None for i in range(self.num_envs)]
         acts = [None if self._autoreset[i] else actions[i].tolist() for i in range(self.num_envs)]
         self._arms.run(seeds, acts)
+        self._build_ahead(np.flatnonzero(self._autoreset))
         rewards = np.zeros(self.num_envs, dtype=np.float64)
         terminated = np.zeros(self.num_envs, dtype=np.bool_)
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        infos = {}
+        infos = _Layout.batch_infos(self._arms.info_batch(), self.num_envs)
+        errors, moves = infos["error_px"].tolist(), infos["moves"].tolist()
         for i in range(self.num_envs):
-            info = _Layout.info(self._arms.info(i))
             if not self._autoreset[i]:
-                rewards[i], terminated[i], truncated[i] = self._layout.outcome(info)
-            infos = self._add_info(infos, info, i)
+                err = None if errors[i] is None or errors[i] != errors[i] else errors[i]
+                rewards[i], terminated[i], truncated[i] = self._layout.outcome_of(err, moves[i])
         self._autoreset = terminated | truncated
         return self._obs(), rewards, terminated, truncated, infos
 
