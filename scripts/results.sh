@@ -52,7 +52,8 @@ mv "$res/lifelong-realistic-aging/lifelong.png" docs/lifelong-realistic-aging-se
     --report out/diagnosis.json > out/diagnosis.md
 python3 scripts/diagnosis_table.py "$runs/diagnosis" > "$res/diagnosis.md"
 bash scripts/diagnosis_map.sh > "$res/diagnosis-map.md"
-# the candidates for fewer fine moves, on tuning seeds (docs/diagnosis.md)
+# the candidates for fewer fine moves, on tuning seeds, and the best of them again on the
+# reporting seeds (docs/diagnosis.md)
 bash scripts/precision.sh "${resume[@]}"
 python3 scripts/readme_sections.py --results "$res"
 echo "results: $res/, the pictures and the generated sections of README.md and docs/*.md regenerated"

@@ -113,6 +113,7 @@ impl StudyOverrides {
         Overrides {
             configs: self.configs.clone(),
             seeds: self.seeds,
+            first_seed: self.first_seed,
             plant: plant.map(str::to_string),
             trials: self.trials.map(count),
             eval_targets: self.eval_targets.map(count),

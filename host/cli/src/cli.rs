@@ -99,6 +99,10 @@ pub struct StudyOverrides {
     /// Seeds to run: the study's first seed and N from it (default: the study's).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub seeds: Option<u64>,
+    /// The first seed instead of the study's: rows tuned on its seeds reported on others,
+    /// e.g. `--first-seed 100 --seeds 10` (the count: `--seeds`, else the study's).
+    #[arg(long)]
+    pub first_seed: Option<u64>,
     /// Training trials per network (default: the study's; rows that set their own, such
     /// as the baselines' 0, keep theirs).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]

@@ -377,6 +377,43 @@ fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--first-seed` moves a study's seeds and keeps their count (`--seeds`, else the file's
+/// count or its list's length): the rows tuned on some seeds, reported on others; a count
+/// that would pass the largest seed is refused.
+#[test]
+fn the_first_seed_moves_the_seeds_and_keeps_their_count() {
+    let seeds_of = |file_seeds: &str, over: Overrides| -> Vec<u64> {
+        let text =
+            format!("name = \"t\"\nseeds = {file_seeds}\n[base]\nplant = \"ideal\"\ntrials = 3\n");
+        let s = StudyFile::parse(&text, "t.toml")
+            .and_then(|f| f.study(Path::new("."), &over, None))
+            .unwrap();
+        s.jobs.iter().map(|j| j.spec.seed).collect()
+    };
+    let first = |f: u64, n: Option<u64>| Overrides {
+        first_seed: Some(f),
+        seeds: n,
+        ..Overrides::default()
+    };
+    let range = "{ first = 1, count = 3 }";
+    assert_eq!(seeds_of(range, Overrides::default()), [1, 2, 3]);
+    assert_eq!(seeds_of(range, first(100, None)), [100, 101, 102]);
+    assert_eq!(
+        seeds_of(range, first(100, Some(5))),
+        [100, 101, 102, 103, 104]
+    );
+    assert_eq!(seeds_of("[5, 9]", first(200, None)), [200, 201]);
+    assert_eq!(seeds_of("[5, 9]", first(200, Some(1))), [200]);
+    let e = refused(
+        &format!("name = \"t\"\nseeds = {range}\n"),
+        &first(u64::MAX - 1, None),
+    );
+    assert!(
+        e.contains("3 seeds from") && e.contains("largest seed"),
+        "{e}"
+    );
+}
+
 fn refused(text: &str, over: &Overrides) -> String {
     let dir = scratch("refused");
     match StudyFile::parse(text, "t.toml").and_then(|f| f.study(Path::new("."), over, Some(&dir))) {

@@ -192,6 +192,10 @@ pub struct Overrides {
     pub configs: Vec<String>,
     /// Seeds `first .. first + N` instead of the file's count.
     pub seeds: Option<u64>,
+    /// The first seed instead of the file's: seeds `F .. F + N` (N from `seeds`, else the
+    /// file's count or its list's length), so that rows tuned on some seeds are reported on
+    /// others from the same file.
+    pub first_seed: Option<u64>,
     /// The base's plant, trials, held-out targets and grasps.
     pub plant: Option<String>,
     /// Training trials per network of the base (rows that set their own keep theirs).
@@ -273,14 +277,28 @@ impl StudyFile {
                 configs.len()
             )));
         }
-        let seeds = match (&self.seeds, over.seeds) {
-            (Seeds::Range { first, .. }, Some(n)) => Seeds::Range {
+        if let Some(first) = over.first_seed {
+            if first.checked_add(seed_count).is_none() {
+                return Err(LabError::Usage(format!(
+                    "study {}: {seed_count} seeds from {first} pass the largest seed ({})",
+                    self.name,
+                    u64::MAX
+                )));
+            }
+        }
+        let seeds = match (&self.seeds, over.seeds, over.first_seed) {
+            (_, _, Some(first)) => Seeds::Range {
+                first,
+                count: seed_count,
+            }
+            .list(),
+            (Seeds::Range { first, .. }, Some(n), None) => Seeds::Range {
                 first: *first,
                 count: n,
             }
             .list(),
-            (Seeds::List(l), Some(n)) => l.iter().copied().take(n as usize).collect(),
-            (s, None) => s.list(),
+            (Seeds::List(l), Some(n), None) => l.iter().copied().take(n as usize).collect(),
+            (s, None, None) => s.list(),
         };
         let mut runs = vec![];
         let mut files = vec![];
