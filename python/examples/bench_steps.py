@@ -101,10 +101,9 @@ def main():
     for _ in range(a.rounds):
         for k, (_, _, measure) in enumerate(plan):
             runs[k].append(measure())
-    rows = [(env, mode, float(np.median(r))) for (env, mode, _), r in zip(plan, runs)]
-    spread = {(env, mode): (min(r), max(r)) for (env, mode, _), r in zip(plan, runs)}
-    ref = {mode.split()[0]: r for env, mode, r in rows if env == "Reacher-v5"}
-    singles = {env: r for env, mode, r in rows if mode == "single"}
+    rows = [(env, mode, float(np.median(r)), min(r), max(r)) for (env, mode, _), r in zip(plan, runs)]
+    ref = {mode.split()[0]: r for env, mode, r, _, _ in rows if env == "Reacher-v5"}
+    singles = {env: r for env, mode, r, _, _ in rows if mode == "single"}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     lines = [
         f"{os.cpu_count()} cores, load average {load:.1f} at the end, {s:g} s a measurement,"
@@ -114,10 +113,9 @@ def main():
         "| environment | mode | steps/s | rounds | x its single | x Reacher-v5 (same mode) |",
         "|---|---|---:|---:|---:|---:|",
     ]
-    for env, mode, r in rows:
+    for env, mode, r, lo, hi in rows:
         kind = mode.split()[0]
         vs_ref = ref.get("sync" if kind == "native" else kind)
-        lo, hi = spread[(env, mode)]
         lines.append(f"| {env} | {mode} | {r:,.0f} | {lo:,.0f} to {hi:,.0f} | {r / singles[env]:.2f} | "
                      + (f"{r / vs_ref:.3f} |" if vs_ref else "- |"))
     lines += [

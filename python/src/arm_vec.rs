@@ -13,7 +13,6 @@
 //! bit: a reset that does not carry the plant over keeps nothing of the episode before.
 
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Mutex;
 use std::thread::JoinHandle;
 
 use pyo3::exceptions::PyValueError;
@@ -46,27 +45,21 @@ struct Ahead {
 /// What one arm of an [`ArmVec`] does in a call.
 enum Work {
     /// A reset, with the episode built ahead for this seed if there is one.
-    Reset(u64, Mutex<Option<Ahead>>),
+    Reset(u64, Option<Ahead>),
     Step(Vec<f32>),
 }
 
-/// Runs `f` on every arm whose `work` is `Some`, in parallel, and returns the first error.
-fn run_all<W: Sync>(
+/// Runs `f` on every arm whose `work` is `Some`, in parallel, and returns the first error
+/// (`work` has one entry an arm).
+fn run_all<W: Send>(
     py: Python<'_>,
     sims: &mut [Sim],
-    work: &[Option<W>],
-    f: impl Fn(&mut Sim, &W) -> Result<(), String> + Sync,
+    work: Vec<Option<W>>,
+    f: impl Fn(&mut Sim, W) -> Result<(), String> + Sync,
 ) -> PyResult<()> {
-    if work.len() != sims.len() {
-        return Err(PyValueError::new_err(format!(
-            "{} arms, {} entries given",
-            sims.len(),
-            work.len()
-        )));
-    }
     py.detach(|| {
         sims.par_iter_mut()
-            .zip(work.par_iter())
+            .zip(work.into_par_iter())
             .map(|(s, w)| match w {
                 Some(w) => f(s, w),
                 None => Ok(()),
@@ -92,14 +85,8 @@ fn lowest_priority() {
 /// The reset of `sim` to `seed`: the episode built ahead for it when its thread has
 /// finished, else the reset here (a thread of the lowest priority may wait long for a core
 /// on a busy machine; it ends on its own).
-fn reset(
-    sim: &mut Sim,
-    seed: u64,
-    ahead: &Mutex<Option<Ahead>>,
-    taken: &AtomicU64,
-) -> Result<(), String> {
-    let built = ahead.lock().ok().and_then(|mut a| a.take());
-    if let Some(a) = built.filter(|a| a.job.is_finished()) {
+fn reset(sim: &mut Sim, seed: u64, ahead: Option<Ahead>, taken: &AtomicU64) -> Result<(), String> {
+    if let Some(a) = ahead.filter(|a| a.job.is_finished()) {
         if let Ok(Ok(ready)) = a.job.join() {
             *sim = ready;
             taken.fetch_add(1, Ordering::Relaxed);
@@ -154,10 +141,14 @@ impl ArmVec {
         seeds: Vec<Option<u64>>,
         actions: Vec<Option<Vec<f32>>>,
     ) -> PyResult<()> {
-        if seeds.len() != actions.len() {
-            return Err(PyValueError::new_err(
-                "one seed or None and one action or None an arm",
-            ));
+        if seeds.len() != self.sims.len() || actions.len() != self.sims.len() {
+            return Err(PyValueError::new_err(format!(
+                "{} arms: one seed or None and one action or None an arm, {} seeds and {} \
+                 actions given",
+                self.sims.len(),
+                seeds.len(),
+                actions.len()
+            )));
         }
         let work: Vec<Option<Work>> = seeds
             .into_iter()
@@ -169,16 +160,16 @@ impl ArmVec {
                     // (its thread ends on its own)
                     let ahead = self.ahead.get_mut(i).and_then(|a| a.take());
                     let ahead = ahead.filter(|a| a.seed == seed);
-                    Some(Work::Reset(seed, Mutex::new(ahead)))
+                    Some(Work::Reset(seed, ahead))
                 }
                 (None, Some(a)) => Some(Work::Step(a)),
                 (None, None) => None,
             })
             .collect();
         let taken = &self.taken;
-        run_all(py, &mut self.sims, &work, |sim, w| match w {
-            Work::Reset(seed, ahead) => reset(sim, *seed, ahead, taken),
-            Work::Step(a) => sim.step(a),
+        run_all(py, &mut self.sims, work, |sim, w| match w {
+            Work::Reset(seed, ahead) => reset(sim, seed, ahead, taken),
+            Work::Step(a) => sim.step(&a),
         })
     }
 

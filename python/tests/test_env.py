@@ -152,6 +152,17 @@ def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persis
     assert native._arms.resets_built_ahead == (0 if persistent else resets)
 
 
+def test_a_vector_call_of_the_wrong_length_is_refused_keeping_the_episodes_built_ahead():
+    native = SoftArmVectorEnv(num_envs=2, config="ideal")
+    native.reset(seed=1)
+    deadline = time.monotonic() + 60
+    while native._arms.ready_ahead < 2 and time.monotonic() < deadline:
+        time.sleep(0.001)
+    with pytest.raises(ValueError, match="2 arms"):
+        native._arms.run([5, None, None], [None, None, None])
+    assert native._arms.ready_ahead == 2
+
+
 def test_batched_infos_are_gymnasiums_for_any_first_arm():
     # what Gymnasium's VectorEnv._add_info makes of the arms' infos one after the other,
     # where the first arm's value sets each key's type: a None first gives objects, a None
