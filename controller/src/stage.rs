@@ -38,6 +38,11 @@ struct Trial<const D: usize, const M: usize> {
     v_prev: [f32; D],
     /// The last pressure applied.
     p_last: [f32; M],
+    /// Experiment (`StageConfig::est_noise`): the filtered position, its per-coordinate
+    /// variance, the last step's aim.
+    est: [f32; D],
+    est_var: f32,
+    aim: [f32; D],
     outcome: StageOutcome,
 }
 
@@ -86,6 +91,9 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
+                est: [0.0; D],
+                est_var: 0.0,
+                aim: [0.0; D],
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
@@ -294,6 +302,9 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
+            est: [0.0; D],
+            est_var: 0.0,
+            aim: [0.0; D],
             outcome: StageOutcome {
                 t,
                 learned: learn,
@@ -322,6 +333,33 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let target = self.trial.target;
         let d = distance(v, &target);
         let tr = &mut self.trial;
+        let sn = self.cfg.est_noise;
+        let filtering = sn > 0.0 && !tr.learn;
+        if filtering {
+            let r = sn * sn;
+            if self.phase == Phase::AwaitFine {
+                let pred = tr.est_var;
+                let dev = distance(v, &tr.aim);
+                if dev * dev > 9.0 * D as f32 * (pred + r) {
+                    tr.est = *v;
+                    tr.est_var = r;
+                } else {
+                    let k = pred / (pred + r);
+                    for i in 0..D {
+                        tr.est[i] = tr.aim[i] + k * (v[i] - tr.aim[i]);
+                    }
+                    tr.est_var = k * r;
+                }
+            } else {
+                tr.est = *v;
+                tr.est_var = r;
+            }
+        }
+        let d_est = if filtering {
+            distance(&tr.est, &target)
+        } else {
+            d
+        };
         let t = tr.outcome.t;
         // the averaged Jacobian of the next fine move, when the Jacobian update made it
         let mut a_bar = None;
@@ -340,7 +378,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                         v,
                     );
                 }
-                let over = d > tr.outcome.tolerance;
+                let over = d_est > tr.outcome.tolerance;
                 match tr.exact {
                     Some(0) => return Ok(self.finish(d, over)),
                     Some(_) => {}
@@ -361,7 +399,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 // whether the trial ends here (and how), decided before the update: when
                 // another fine move follows, the update also gives its averaged Jacobian
                 let fine = tr.outcome.fine_moves;
-                let over = d > tr.outcome.tolerance;
+                let over = d_est > tr.outcome.tolerance;
                 let finish = if let Some(n) = tr.exact {
                     (fine >= n).then_some(over)
                 } else {
@@ -452,7 +490,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             }
         };
         let limit = self.cfg.pressure_limit;
-        let mut p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, f32::INFINITY);
+        let from = if filtering { tr.est } else { *v };
+        let mut p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, &from, f32::INFINITY);
         let w = self.cfg.map_step;
         if w > 0.0 && !tr.learn && tr.outcome.fine_moves == 0 {
             // the map's step (StageConfig::map_step): the coarse map's output at the target
@@ -469,12 +508,37 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let noise = self.cfg.step_noise;
         if noise > 0.0 && !tr.learn {
             // the step shortened near the noise floor (StageConfig::step_noise)
-            let gain = d * d / (d * d + noise * noise);
+            let gain = d_est * d_est / (d_est * d_est + noise * noise);
             for m in 0..M {
                 p_fine[m] = tr.p_last[m] + gain * (p_fine[m] - tr.p_last[m]);
             }
         }
+        let boost = self.cfg.reverse_boost;
+        if boost != 0.0 && !tr.learn && tr.outcome.fine_moves > 0 {
+            for m in 0..M {
+                let before = tr.p_last[m] - tr.p_prev[m];
+                let step = p_fine[m] - tr.p_last[m];
+                if before * step < 0.0 {
+                    p_fine[m] = tr.p_last[m] + (1.0 + boost) * step;
+                }
+            }
+        }
         let p_fine = rules::clamp(&p_fine, limit);
+        if filtering {
+            // the step aims at the target (scaled by the step's noise gain if on)
+            let g = if noise > 0.0 {
+                d_est * d_est / (d_est * d_est + noise * noise)
+            } else {
+                1.0
+            };
+            let f = self.cfg.est_model;
+            for i in 0..D {
+                tr.aim[i] = tr.est[i] + g * (target[i] - tr.est[i]);
+            }
+            let s = g * d_est;
+            let b = self.cfg.est_floor;
+            tr.est_var += (f * f * s * s + b * b) / D as f32;
+        }
         tr.p_prev = tr.p_last;
         tr.v_prev = *v;
         tr.p_last = p_fine;

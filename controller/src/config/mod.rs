@@ -196,6 +196,17 @@ pub struct StageConfig {
     /// deviation, off in every preset; the study `studies/precision.toml` measures it
     /// ([`crate::stage`]).
     pub step_noise: f32,
+    /// Experiment (branch exp-trial-estimate): a mature fine move's step on each channel that
+    /// reverses the channel's last move is scaled by `1 + reverse_boost` (`0` = off).
+    pub reverse_boost: f32,
+    /// Experiment: the camera noise per coordinate (px) of a Kalman estimate of the arm's
+    /// position over a mature trial's readings (`0` = off): the stop test and the next step
+    /// use the estimate; the prediction is the last step's aim.
+    pub est_noise: f32,
+    /// Experiment: the landing error of a step as a fraction of its length (sd).
+    pub est_model: f32,
+    /// Experiment: a landing error independent of the step's length (px, sd).
+    pub est_floor: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -415,6 +426,10 @@ impl Config {
             trial_secant: 0.0,
             map_step: 0.0,
             step_noise: 0.0,
+            reverse_boost: 0.0,
+            est_noise: 0.0,
+            est_model: 0.0,
+            est_floor: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -535,6 +550,10 @@ const ZERO_STAGE: StageConfig = StageConfig {
     trial_secant: 0.0,
     map_step: 0.0,
     step_noise: 0.0,
+    reverse_boost: 0.0,
+    est_noise: 0.0,
+    est_model: 0.0,
+    est_floor: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
