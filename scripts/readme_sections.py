@@ -1,18 +1,18 @@
 #!/usr/bin/env python3
 """Fills the generated sections of the user docs from the result files.
 
-In README.md and docs/*.md the text between `<!-- results:NAME -->` and
+In README.md, firmware/README.md and docs/*.md the text between `<!-- results:NAME -->` and
 `<!-- /results:NAME -->` is the file RESULTS/NAME (e.g. docs/results/compare.md), copied
 whole. scripts/results.sh writes the result files and then runs this script, so every
 measured table in the docs is the one the last run produced and none is edited by hand.
 
-  python3 scripts/readme_sections.py            rewrite the sections of README.md and docs/*.md
+  python3 scripts/readme_sections.py            rewrite the sections of README.md, firmware/README.md and docs/*.md
   python3 scripts/readme_sections.py --check    change nothing; exit 1 when a section differs
                                                 from its file, names a file that does not
                                                 exist, is not closed, or when a result file
                                                 (RESULTS/*.md) is placed in no document
   --results DIR   the result files (default docs/results)
-  FILE ...        the documents (default README.md and docs/*.md)
+  FILE ...        the documents (default README.md, firmware/README.md and docs/*.md)
 Paths are relative to the repository's root, whatever the working directory.
 """
 import argparse
@@ -33,10 +33,10 @@ def main():
     ap.add_argument("--check", action="store_true",
                     help="change nothing; exit 1 when a document differs from the result files")
     ap.add_argument("--results", default="docs/results", help="the result files (default docs/results)")
-    ap.add_argument("files", nargs="*", help="the documents (default README.md and docs/*.md)")
+    ap.add_argument("files", nargs="*", help="the documents (default README.md, firmware/README.md and docs/*.md)")
     a = ap.parse_args()
     res = ROOT / a.results
-    files = [ROOT / f for f in a.files] or [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    files = [ROOT / f for f in a.files] or [ROOT / "README.md", ROOT / "firmware" / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 
     problems, placed, changed, count = [], set(), [], 0
     for doc in files:

@@ -152,15 +152,32 @@ def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persis
     assert native._arms.resets_built_ahead == (0 if persistent else resets)
 
 
-def test_a_vector_call_of_the_wrong_length_is_refused_keeping_the_episodes_built_ahead():
+def _two_arms_with_their_episodes_built_ahead():
     native = SoftArmVectorEnv(num_envs=2, config="ideal")
     native.reset(seed=1)
     deadline = time.monotonic() + 60
     while native._arms.ready_ahead < 2 and time.monotonic() < deadline:
         time.sleep(0.001)
+    assert native._arms.ready_ahead == 2
+    return native
+
+
+def test_a_vector_call_of_the_wrong_length_is_refused_keeping_the_episodes_built_ahead():
+    native = _two_arms_with_their_episodes_built_ahead()
     with pytest.raises(ValueError, match="2 arms"):
         native._arms.run([5, None, None], [None, None, None])
     assert native._arms.ready_ahead == 2
+
+
+def test_an_episode_built_ahead_for_an_arm_that_is_not_there_is_refused():
+    native = _two_arms_with_their_episodes_built_ahead()
+    with pytest.raises(ValueError, match="no arm 2 of 2"):
+        native._arms.prepare(2, 7)
+    # the arms' own episodes built ahead are untouched, and the next resets take them
+    assert native._arms.ready_ahead == 2
+    before = native._arms.resets_built_ahead
+    native.reset()
+    assert native._arms.resets_built_ahead == before + 2
 
 
 def test_batched_infos_are_gymnasiums_for_any_first_arm():

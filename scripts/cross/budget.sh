@@ -24,7 +24,21 @@
 #   RAM region of the board's memory.x checked against the link, and the flash the image may
 #   take: the part's, less the store of its learned tables (the H743: its last 512 KiB, the
 #   image's FLASH region is 1,536 KiB; the G474: bank 2, the image's FLASH is bank 1's 256 KiB).
+# The measured figures also go into three tables: docs/results/budget.md (each figure with its
+# budget), budget-phases.md (the stage-1 phases, both builds) and budget-boards.md (the board
+# lines), copied into firmware/README.md and docs/performance.md by scripts/readme_sections.py.
+# The figures are deterministic (instruction counts under -icount, section sizes of images
+# whose source paths are remapped), so the run fails when the tables it makes differ from the
+# committed ones, with the difference:
+#   bash scripts/cross/budget.sh            measure, check the budgets and the committed tables
+#   bash scripts/cross/budget.sh --write    the same, and write the tables into docs/results
 set -euo pipefail
+write=0
+case "${1:-}" in
+    --write) write=1 ;;
+    "") ;;
+    *) echo "usage: budget.sh [--write]" >&2; exit 2 ;;
+esac
 source "$(dirname "$0")/env.sh"
 bash "$root/scripts/cross/install-toolchain.sh" >/dev/null
 cd "$root/firmware"
@@ -100,6 +114,9 @@ larger() { if [ "$1" -ge "$2" ]; then echo "$1"; else echo "$2"; fi; }
 deepest_f=$(larger "$stack" "$node_stack_f")
 deepest_c=$(larger "$stack_c" "$node_stack_c")
 
+# n 1234567 -> 1,234,567; nn "12 / 34" -> "12 / 34" with each number so formatted
+n() { echo "$1" | sed ':a;s/\B[0-9]\{3\}\>/,&/;ta'; }
+nn() { echo "$1" | sed ':a;s/\B[0-9]\{3\}\>/,&/g;ta'; }
 fail=0
 check() { # name value limit unit
     if [ "$2" -le "$3" ]; then verdict=ok; else verdict=FAIL; fail=1; fi
@@ -135,6 +152,7 @@ printf '%-58s %10s\n' "compact: stage-1 learning step, mean / max" "$learn_c"
 echo
 echo "board images (firmware/boards): RAM = static (.data+.bss+.uninit) + the larger stack high-water mark QEMU measured above for the same controller build"
 symbol() { echo $((16#$(arm-none-eabi-nm "$1" | awk -v s="$2" '$3==s{print $1}'))); }
+board_rows=""
 for board in "stm32h743 f32 524288 1572864" "stm32g474 compact 131072 262144"; do
     read -r name build ram_size flash_size <<< "$board"
     if ! board_elf=$(build_board "$name"); then
@@ -157,6 +175,7 @@ for board in "stm32h743 f32 524288 1572864" "stm32g474 compact 131072 262144"; d
     guard_b=$(( (stack_end + 31) / 32 * 32 + 32 - stack_end ))
     used=$((ram_b + stack_b + guard_b))
     line="board $name: RAM $used of $ram_size B (stack guard $guard_b B), flash $flash_b of $flash_size B"
+    board_rows+="| $name | $(n "$ram_b") + $(n "$stack_b") + $(n "$guard_b") = **$(n "$used")** of $(n "$ram_size") | **$(n "$flash_b")** of $(n "$flash_size") |"$'\n'
     if [ $used -le "$ram_size" ] && [ "$flash_b" -le "$flash_size" ]; then
         echo "$line: ok"
     else
@@ -171,9 +190,58 @@ printf '%-58s %10s\n' "Broyden servo baseline: stage-1 servo step, mean / max" "
 echo
 printf '%-90s %8s %8s %8s %8s\n' "stage-1 phase (instructions)" "mean" "max" "compact" "max"
 phase_lines() { sed -n 's/^phase \(.*\): mean \([0-9]*\) max \([0-9]*\) instructions$/\1\t\2\t\3/p'; }
-paste <(echo "$out" | phase_lines) <(echo "$out_c" | phase_lines | cut -f2,3) |
-    while IFS=$'\t' read -r name mean max cmean cmax; do
-        printf '%-90s %8s %8s %8s %8s\n' "$name" "$mean" "$max" "${cmean:--}" "${cmax:--}"
+phase_rows=$(paste <(echo "$out" | phase_lines) <(echo "$out_c" | phase_lines | cut -f2,3))
+echo "$phase_rows" | while IFS=$'\t' read -r name mean max cmean cmax; do
+    printf '%-90s %8s %8s %8s %8s\n' "$name" "$mean" "$max" "${cmean:--}" "${cmax:--}"
+done
+
+# the tables (docs/results/budget*.md)
+tables=$(mktemp -d)
+trap 'rm -rf "$tables"' EXIT
+{
+    echo "| | measured | budget |"
+    echo "|---|---|---|"
+    echo "| static RAM, firmware with the CAN node (.data + .bss + .uninit) | **$(n "$ram_pil")** B | 245,760 B (240 KiB) |"
+    echo "| static RAM, benchmark firmware | $(n "$ram") B | 245,760 B |"
+    echo "| flash, firmware with the CAN node / benchmark firmware (.vector_table + .text + .rodata + .data) | **$(n "$flash_pil")** / $(n "$flash") B | 131,072 B (128 KiB) |"
+    echo "| stack high-water mark, benchmark / CAN node in a short session | $(n "$stack") / $(n "$node_stack_f") B | 8,192 B |"
+    echo "| stage-1 learning step (coarse + 2 fine moves, all updates), max / mean | **$(n "$learn_max")** / $(n "$learn_mean") instructions | max 150,000 |"
+    echo "| stage-1 control step (rank + coarse output), mean / max | **$(n "$control_mean")** / $(n "$control_max") instructions | mean 60,000 |"
+    echo "| the Broyden servo baseline: stage-1 servo step (Broyden update + damped least squares), mean / max | $(nn "$broyden") instructions | reported |"
+    echo "| thumbv6m-none-eabi (no FPU, soft float): static RAM / flash, benchmark firmware | $(n "$ram6") / $(n "$flash6") B | reported |"
+    echo "| thumbv6m-none-eabi, its benchmark run on the Cortex-M4 board: control step mean / max; learning step mean / max | $(nn "$control6"); $(nn "$learn6") instructions | reported |"
+    echo "| **compact build** (i16 tables, no Broyden servo): static RAM, firmware with the CAN node | **$(n "$ram_pc")** B | 131,072 B (128 KiB) |"
+    echo "| compact build: stack high-water mark, benchmark / CAN node in a short session | $(n "$stack_c") / $(n "$node_stack_c") B | |"
+    echo "| compact build: static RAM with the larger stack high-water mark; left free of 128 KiB | $(n "$((ram_pc + deepest_c))") B; **$(n "$((131072 - ram_pc - deepest_c))") B free** | at least 2,048 B free |"
+    echo "| compact build: flash, firmware with the CAN node / benchmark firmware | **$(n "$flash_pc")** / $(n "$flash_c") B | 262,144 B (256 KiB) |"
+    echo "| compact build: static RAM, benchmark firmware | $(n "$ram_c") B | reported |"
+    echo "| compact build: stage-1 control step, mean / max; learning step, mean / max | $(nn "$control_c"); $(nn "$learn_c") instructions | reported |"
+} > "$tables/budget.md"
+{
+    echo "| stage-1 phase (instructions) | mean / max | compact build: mean / max |"
+    echo "|---|---|---|"
+    echo "$phase_rows" | while IFS=$'\t' read -r name mean max cmean cmax; do
+        c="–"
+        [ -n "$cmean" ] && c="$(n "$cmean") / $(n "$cmax")"
+        echo "| $name | $(n "$mean") / $(n "$max") | $c |"
     done
+} > "$tables/budget-phases.md"
+{
+    echo "| board image | RAM: static + stack high-water mark + stack guard, of the part's (B) | flash, of what the image may take (B) |"
+    echo "|---|---|---|"
+    printf '%s' "$board_rows"
+} > "$tables/budget-boards.md"
+results="$root/docs/results"
+if [ $write -eq 1 ]; then
+    cp "$tables"/budget*.md "$results/"
+    echo "budget: wrote docs/results/budget.md, budget-phases.md and budget-boards.md"
+else
+    for t in budget.md budget-phases.md budget-boards.md; do
+        if ! diff -u "$results/$t" "$tables/$t"; then
+            echo "budget: FAIL: docs/results/$t differs from this run's figures (above); bash scripts/cross/budget.sh --write, then python3 scripts/readme_sections.py" >&2
+            fail=1
+        fi
+    done
+fi
 [ $fail -eq 0 ] || { echo "budget: FAIL" >&2; exit 1; }
 echo "budget: all within limits"
