@@ -3,8 +3,10 @@
 # on the commit tagged exp-trial-estimate (merged into main's history without its changes),
 # which adds them to the controller and their rows to studies/precision.toml. This builds that
 # commit in a temporary worktree, runs its rows on the tuning seeds 1-4 and writes
-# docs/results/precision-experiments.md (copied into docs/diagnosis.md by
-# scripts/readme_sections.py). About 6 minutes on 2 cores after the build.
+# docs/results/precision-experiments.md, then the best two with the 1,000-trial row they
+# change on the reporting seeds 100-109 into docs/results/precision-experiments-heldout.md
+# (both copied into docs/diagnosis.md by scripts/readme_sections.py). About 6 + 7 minutes on
+# 2 cores after the build.
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,5 +25,9 @@ rows+=,c1000-est-f0.3-b2,tol-1.1,tol-1.2
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
     "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/runs" \
         --quiet --configs "$rows" "$@" > "$tmp/table.md"
+    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/heldout" \
+        --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2 \
+        --first-seed 100 --seeds 10 "$@" > "$tmp/heldout.md"
 )
 mv "$tmp/table.md" "$root/docs/results/precision-experiments.md"
+mv "$tmp/heldout.md" "$root/docs/results/precision-experiments-heldout.md"
