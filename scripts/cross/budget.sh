@@ -114,9 +114,11 @@ larger() { if [ "$1" -ge "$2" ]; then echo "$1"; else echo "$2"; fi; }
 deepest_f=$(larger "$stack" "$node_stack_f")
 deepest_c=$(larger "$stack_c" "$node_stack_c")
 
-# n 1234567 -> 1,234,567; nn "12 / 34" -> "12 / 34" with each number so formatted
-n() { echo "$1" | sed ':a;s/\B[0-9]\{3\}\>/,&/;ta'; }
-nn() { echo "$1" | sed ':a;s/\B[0-9]\{3\}\>/,&/g;ta'; }
+# n "1234567 / 89012" -> "1,234,567 / 89,012": every number in the text with thousands commas
+n() { echo "$1" | sed ':a;s/\B[0-9]\{3\}\>/,&/g;ta'; }
+# the budgets (bytes, instructions), checked below and written into docs/results/budget.md
+ram_limit=245760 flash_limit=131072 stack_limit=8192 learn_limit=150000 control_limit=60000
+compact_ram_limit=131072 compact_free_min=2048 compact_flash_limit=262144
 fail=0
 check() { # name value limit unit
     if [ "$2" -le "$3" ]; then verdict=ok; else verdict=FAIL; fail=1; fi
@@ -124,26 +126,26 @@ check() { # name value limit unit
 }
 echo
 printf '%-58s %10s %10s %-12s %s\n' "budget (thumbv7em-none-eabihf, firmware/)" "measured" "limit" "unit" ""
-check "static RAM, firmware with the CAN node (.data+.bss)" "$ram_pil" 245760 bytes
-check "flash, firmware with the CAN node" "$flash_pil" 131072 bytes
-check "static RAM, benchmark firmware (.data+.bss)" "$ram" 245760 bytes
-check "flash, benchmark firmware" "$flash" 131072 bytes
-check "stack high-water mark" "$stack" 8192 bytes
-check "stack high-water mark, CAN node in a short session" "$node_stack_f" 8192 bytes
-check "stage-1 learning step, max (coarse + 2 fine + updates)" "$learn_max" 150000 instructions
+check "static RAM, firmware with the CAN node (.data+.bss)" "$ram_pil" $ram_limit bytes
+check "flash, firmware with the CAN node" "$flash_pil" $flash_limit bytes
+check "static RAM, benchmark firmware (.data+.bss)" "$ram" $ram_limit bytes
+check "flash, benchmark firmware" "$flash" $flash_limit bytes
+check "stack high-water mark" "$stack" $stack_limit bytes
+check "stack high-water mark, CAN node in a short session" "$node_stack_f" $stack_limit bytes
+check "stage-1 learning step, max (coarse + 2 fine + updates)" "$learn_max" $learn_limit instructions
 printf '%-58s %10s\n' "stage-1 learning step, mean" "$learn_mean"
-check "stage-1 control step, mean" "$control_mean" 60000 instructions
+check "stage-1 control step, mean" "$control_mean" $control_limit instructions
 printf '%-58s %10s\n' "stage-1 control step (rank + coarse), max" "$control_max"
 printf '%-58s %10s\n' "thumbv6m-none-eabi: static RAM / flash (bytes)" "$ram6 / $flash6"
 printf '%-58s %10s\n' "thumbv6m (soft float): control step, mean / max" "$control6"
 printf '%-58s %10s\n' "thumbv6m (soft float): learning step, mean / max" "$learn6"
 echo
 printf '%-58s %10s %10s %-12s %s\n' "compact build (i16 tables, --features compact)" "measured" "limit" "unit" ""
-check "compact: static RAM, firmware with the CAN node" "$ram_pc" 131072 bytes
+check "compact: static RAM, firmware with the CAN node" "$ram_pc" $compact_ram_limit bytes
 printf '%-58s %10s\n' "compact: stack high-water mark, benchmark / CAN node" "$stack_c / $node_stack_c"
-check "compact: static RAM + stack high-water mark (2 KiB free)" "$((ram_pc + deepest_c))" $((131072 - 2048)) bytes
-printf '%-58s %10s\n' "compact: RAM left free of 131,072 B with the stack" "$((131072 - ram_pc - deepest_c))"
-check "compact: flash, firmware with the CAN node" "$flash_pc" 262144 bytes
+check "compact: static RAM + stack high-water mark (2 KiB free)" "$((ram_pc + deepest_c))" $((compact_ram_limit - compact_free_min)) bytes
+printf '%-58s %10s\n' "compact: RAM left free of 131,072 B with the stack" "$((compact_ram_limit - ram_pc - deepest_c))"
+check "compact: flash, firmware with the CAN node" "$flash_pc" $compact_flash_limit bytes
 printf '%-58s %10s\n' "compact: static RAM / flash, benchmark firmware" "$ram_c / $flash_c"
 printf '%-58s %10s\n' "compact: stage-1 control step, mean / max" "$control_c"
 printf '%-58s %10s\n' "compact: stage-1 learning step, mean / max" "$learn_c"
@@ -201,21 +203,21 @@ trap 'rm -rf "$tables"' EXIT
 {
     echo "| | measured | budget |"
     echo "|---|---|---|"
-    echo "| static RAM, firmware with the CAN node (.data + .bss + .uninit) | **$(n "$ram_pil")** B | 245,760 B (240 KiB) |"
-    echo "| static RAM, benchmark firmware | $(n "$ram") B | 245,760 B |"
-    echo "| flash, firmware with the CAN node / benchmark firmware (.vector_table + .text + .rodata + .data) | **$(n "$flash_pil")** / $(n "$flash") B | 131,072 B (128 KiB) |"
-    echo "| stack high-water mark, benchmark / CAN node in a short session | $(n "$stack") / $(n "$node_stack_f") B | 8,192 B |"
-    echo "| stage-1 learning step (coarse + 2 fine moves, all updates), max / mean | **$(n "$learn_max")** / $(n "$learn_mean") instructions | max 150,000 |"
-    echo "| stage-1 control step (rank + coarse output), mean / max | **$(n "$control_mean")** / $(n "$control_max") instructions | mean 60,000 |"
-    echo "| the Broyden servo baseline: stage-1 servo step (Broyden update + damped least squares), mean / max | $(nn "$broyden") instructions | reported |"
+    echo "| static RAM, firmware with the CAN node (.data + .bss + .uninit) | **$(n "$ram_pil")** B | $(n "$ram_limit") B ($((ram_limit / 1024)) KiB) |"
+    echo "| static RAM, benchmark firmware | $(n "$ram") B | $(n "$ram_limit") B |"
+    echo "| flash, firmware with the CAN node / benchmark firmware (.vector_table + .text + .rodata + .data) | **$(n "$flash_pil")** / $(n "$flash") B | $(n "$flash_limit") B ($((flash_limit / 1024)) KiB) |"
+    echo "| stack high-water mark, benchmark / CAN node in a short session | $(n "$stack") / $(n "$node_stack_f") B | $(n "$stack_limit") B |"
+    echo "| stage-1 learning step (coarse + 2 fine moves, all updates), max / mean | **$(n "$learn_max")** / $(n "$learn_mean") instructions | max $(n "$learn_limit") |"
+    echo "| stage-1 control step (rank + coarse output), mean / max | **$(n "$control_mean")** / $(n "$control_max") instructions | mean $(n "$control_limit") |"
+    echo "| the Broyden servo baseline: stage-1 servo step (Broyden update + damped least squares), mean / max | $(n "$broyden") instructions | reported |"
     echo "| thumbv6m-none-eabi (no FPU, soft float): static RAM / flash, benchmark firmware | $(n "$ram6") / $(n "$flash6") B | reported |"
-    echo "| thumbv6m-none-eabi, its benchmark run on the Cortex-M4 board: control step mean / max; learning step mean / max | $(nn "$control6"); $(nn "$learn6") instructions | reported |"
-    echo "| **compact build** (i16 tables, no Broyden servo): static RAM, firmware with the CAN node | **$(n "$ram_pc")** B | 131,072 B (128 KiB) |"
+    echo "| thumbv6m-none-eabi, its benchmark run on the Cortex-M4 board: control step mean / max; learning step mean / max | $(n "$control6"); $(n "$learn6") instructions | reported |"
+    echo "| **compact build** (i16 tables, no Broyden servo): static RAM, firmware with the CAN node | **$(n "$ram_pc")** B | $(n "$compact_ram_limit") B ($((compact_ram_limit / 1024)) KiB) |"
     echo "| compact build: stack high-water mark, benchmark / CAN node in a short session | $(n "$stack_c") / $(n "$node_stack_c") B | |"
-    echo "| compact build: static RAM with the larger stack high-water mark; left free of 128 KiB | $(n "$((ram_pc + deepest_c))") B; **$(n "$((131072 - ram_pc - deepest_c))") B free** | at least 2,048 B free |"
-    echo "| compact build: flash, firmware with the CAN node / benchmark firmware | **$(n "$flash_pc")** / $(n "$flash_c") B | 262,144 B (256 KiB) |"
+    echo "| compact build: static RAM with the larger stack high-water mark; left free of $((compact_ram_limit / 1024)) KiB | $(n "$((ram_pc + deepest_c))") B; **$(n "$((compact_ram_limit - ram_pc - deepest_c))") B free** | at least $(n "$compact_free_min") B free |"
+    echo "| compact build: flash, firmware with the CAN node / benchmark firmware | **$(n "$flash_pc")** / $(n "$flash_c") B | $(n "$compact_flash_limit") B ($((compact_flash_limit / 1024)) KiB) |"
     echo "| compact build: static RAM, benchmark firmware | $(n "$ram_c") B | reported |"
-    echo "| compact build: stage-1 control step, mean / max; learning step, mean / max | $(nn "$control_c"); $(nn "$learn_c") instructions | reported |"
+    echo "| compact build: stage-1 control step, mean / max; learning step, mean / max | $(n "$control_c"); $(n "$learn_c") instructions | reported |"
 } > "$tables/budget.md"
 {
     echo "| stage-1 phase (instructions) | mean / max | compact build: mean / max |"
