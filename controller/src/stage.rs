@@ -43,6 +43,10 @@ struct Trial<const D: usize, const M: usize> {
     est: [f32; D],
     est_var: f32,
     aim: [f32; D],
+    /// Experiment (`StageConfig::replay`): each move's applied pressure and the position it
+    /// reached, the coarse move first.
+    moves_p: [[f32; M]; TRACE_LEN],
+    moves_v: [[f32; D]; TRACE_LEN],
     outcome: StageOutcome,
 }
 
@@ -94,6 +98,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 est: [0.0; D],
                 est_var: 0.0,
                 aim: [0.0; D],
+                moves_p: [[0.0; M]; TRACE_LEN],
+                moves_v: [[0.0; D]; TRACE_LEN],
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
@@ -103,6 +109,18 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     /// Random initial tables, learning step 0, precomputed rank tables.
     pub fn init_random(&mut self, rng: &mut impl rand_core::RngCore) {
         self.net.init_random(rng, &self.cfg.init);
+        let active = self.cfg.active_neurons as usize;
+        if active > 0 {
+            // experiment: the neurons beyond `active` parked far outside any image
+            for k in active.min(N)..N {
+                for d in 0..D {
+                    self.net.w[k][d] = <crate::entry::Table as crate::entry::Entry>::put(
+                        1.0e5 + k as f32,
+                        crate::entry::TABLE_SCALES.w,
+                    );
+                }
+            }
+        }
         self.t = 0;
         self.phase = Phase::Idle;
         self.prepare();
@@ -305,6 +323,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             est: [0.0; D],
             est_var: 0.0,
             aim: [0.0; D],
+            moves_p: [[0.0; M]; TRACE_LEN],
+            moves_v: [[0.0; D]; TRACE_LEN],
             outcome: StageOutcome {
                 t,
                 learned: learn,
@@ -333,6 +353,17 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let target = self.trial.target;
         let d = distance(v, &target);
         let tr = &mut self.trial;
+        if tr.learn && tr.p_target.is_none() {
+            // experiment (StageConfig::replay): the move's pressure and where it arrived
+            let n = match self.phase {
+                Phase::AwaitCoarse => 0,
+                _ => tr.outcome.fine_moves as usize + 1,
+            };
+            if n < TRACE_LEN {
+                tr.moves_p[n] = tr.p_last;
+                tr.moves_v[n] = *v;
+            }
+        }
         let sn = self.cfg.est_noise;
         let filtering = sn > 0.0 && !tr.learn;
         if filtering {
@@ -446,6 +477,18 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
+                    let fp = self.cfg.fine_pressure;
+                    if fp > 0.0 && tr.p_target.is_none() {
+                        // experiment: the pressure rule taught by the fine move too
+                        rules::update_pressures(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            fp * self.cfg.p.coeff(t),
+                            &tr.p_last,
+                            v,
+                        );
+                    }
                 }
                 if let Some(over) = finish {
                     return Ok(self.finish(d, over));
@@ -547,6 +590,36 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     }
 
     fn finish(&mut self, d: f32, cap_hit: bool) -> StageStep<M> {
+        let tr = &self.trial;
+        if tr.learn && tr.p_target.is_none() && self.cfg.replay > 0 {
+            // experiment (StageConfig::replay): the trial's moves through the rules again
+            let t = tr.outcome.t;
+            let n = (tr.outcome.fine_moves as usize + 1).min(TRACE_LEN);
+            let (mp, mv) = (tr.moves_p, tr.moves_v);
+            for _ in 0..self.cfg.replay {
+                for k in 0..n {
+                    rules::update_pressures(
+                        &mut self.net,
+                        &self.ranking,
+                        &self.neighbour,
+                        self.cfg.p.coeff(t),
+                        &mp[k],
+                        &mv[k],
+                    );
+                    if k > 0 {
+                        let _ = rules::update_jacobians(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            self.cfg.j.coeff(t),
+                            &sub(&mp[k], &mp[k - 1]),
+                            &sub(&mv[k], &mv[k - 1]),
+                            self.cfg.dv_rule(),
+                        );
+                    }
+                }
+            }
+        }
         self.trial.outcome.final_error = d;
         self.trial.outcome.cap_hit = cap_hit;
         self.phase = Phase::Idle;

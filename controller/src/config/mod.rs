@@ -207,6 +207,18 @@ pub struct StageConfig {
     pub est_model: f32,
     /// Experiment: a landing error independent of the step's length (px, sd).
     pub est_floor: f32,
+    /// Experiment (branch exp-replay): the pressure rule (8.12) also taught by each learning
+    /// fine move, the pressure it applied and the position it reached, its rate scaled by
+    /// this factor (`0` = off: the paper teaches it the coarse move only).
+    pub fine_pressure: f32,
+    /// Experiment: at the end of an unsupervised learning trial, its moves replayed this
+    /// many times through the pressure rule (8.12, each move's pressure and position) and the
+    /// Jacobian rule (8.15, each fine move's dp and dv), with the trial's rates and ranking.
+    pub replay: u8,
+    /// Experiment: only the first `active_neurons` neurons take part (the others' centres
+    /// are parked far outside any image at initialisation, so they are never ranked);
+    /// `0` = all.
+    pub active_neurons: u16,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -430,6 +442,9 @@ impl Config {
             est_noise: 0.0,
             est_model: 0.0,
             est_floor: 0.0,
+            fine_pressure: 0.0,
+            replay: 0,
+            active_neurons: 0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -554,6 +569,9 @@ const ZERO_STAGE: StageConfig = StageConfig {
     est_noise: 0.0,
     est_model: 0.0,
     est_floor: 0.0,
+    fine_pressure: 0.0,
+    replay: 0,
+    active_neurons: 0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
