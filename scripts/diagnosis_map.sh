@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The map's error (docs/diagnosis.md, "The map and its Jacobians"): trains the project preset
 # on a copy of the ideal plant without hysteresis (seeds 100-102, 300 trials), then measures
-# each network's coarse move and first fine move on the same plant at rest
+# each network's coarse move and first fine move on the same plant at rest, and its pieces
+# against the plant's exact tangents
 # (host/bench/examples/map_error.rs). Prints the table (docs/results/diagnosis-map.md).
-# About a minute of one core.
+# About 2 minutes of one core.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet -p trn-sim --bins

@@ -12,6 +12,12 @@
 //! how far the nearest neurons' pressures lie from the target's own pressures against the
 //! coarse command.
 //!
+//! The last two ask how far the learning is from what this network's pieces could do: where
+//! the nearest neurons' own pressures land, against their centres (a piece's own error), and
+//! the coarse move the same ranks would make if every piece were exact (each neuron's
+//! pressure, where it lands, and the plant's Jacobian there, extrapolated to the target and
+//! averaged with the weights the network gives its ranks): the interpolation's own bias.
+//!
 //! `scripts/diagnosis_map.sh` trains the networks (seeds 100-102) and runs it:
 //! `map_error PLANT.toml SEED=NET.ckpt ...` prints one row per checkpoint and their mean.
 use nalgebra::{SMatrix, SVector};
@@ -64,6 +70,8 @@ struct Row {
     neighbours_true_ratio: f32,
     nearest_p: f32,
     coarse_p: f32,
+    own_px: f32,
+    exact_pieces_px: f32,
 }
 
 fn pressure_distance(a: &[f32; 5], b: &[f32; 5]) -> f32 {
@@ -96,6 +104,8 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
     let mut rows = Vec::new();
     // each neuron's true Jacobian at its own pressures, computed once
     let mut at_neuron: Vec<Option<Option<SMatrix<f32, 8, 5>>>> = vec![None; 1000];
+    // and where its pressures land
+    let mut landing: Vec<Option<Option<[f32; 8]>>> = vec![None; 1000];
     let mut tries = 0;
     while rows.len() < TARGETS && tries < 20 * TARGETS {
         tries += 1;
@@ -154,6 +164,45 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
         let Some(vn) = at_rest(plant, &p_n) else {
             continue;
         };
+        // the same ranks' pieces made exact
+        let (mut p_sum, mut w_sum) = ([0.0f32; 5], 0.0f32);
+        for (r, &k) in order[..AVERAGED].iter().enumerate() {
+            let pk = net.pressure(k);
+            let xk = *landing[k].get_or_insert_with(|| at_rest(plant, &pk));
+            let jk = *at_neuron[k].get_or_insert_with(|| jacobian(plant, &pk));
+            let (Some(xk), Some(jk)) = (xk, jk) else {
+                continue;
+            };
+            let Ok(jkp) = jk.pseudo_inverse(1e-6) else {
+                continue;
+            };
+            let d = SVector::<f32, 8>::from_iterator(u.iter().zip(&xk).map(|(a, b)| a - b));
+            let dpk = jkp * d;
+            let al = (-(r as f32) / 10.0).exp();
+            for i in 0..5 {
+                p_sum[i] += al * (pk[i] + dpk[i]);
+            }
+            w_sum += al;
+        }
+        if w_sum <= 0.0 {
+            continue;
+        }
+        let p_exact: [f32; 5] = core::array::from_fn(|i| p_sum[i] / w_sum);
+        let Some(v_exact) = at_rest(plant, &p_exact) else {
+            continue;
+        };
+        let own: Vec<f32> = order[..NEAREST]
+            .iter()
+            .filter_map(|&k| {
+                let pk = net.pressure(k);
+                landing[k]
+                    .get_or_insert_with(|| at_rest(plant, &pk))
+                    .map(|x| dist(&x, &net.weight(k)))
+            })
+            .collect();
+        if own.is_empty() {
+            continue;
+        }
         let nearest_p = order[..NEAREST]
             .iter()
             .map(|&k| pressure_distance(&net.pressure(k), &pt))
@@ -169,6 +218,8 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
             true_ratio: dist(&u, &vx) / coarse_px,
             gain,
             across: (moved - e * gain).norm() / coarse_px,
+            own_px: mean(&own),
+            exact_pieces_px: dist(&u, &v_exact),
         });
     }
     rows
@@ -188,10 +239,10 @@ fn main() {
     let mut cfg = cfg;
     cfg.realism.process_noise_deg = 0.0;
     println!(
-        "| seed | targets | nearest neuron px | coarse px: mean (p95) | coarse, nearest third px | coarse, farthest third px | first fine move: error left, learned Jacobian (p95) | error left, true Jacobian (p95) | learned step: gain along the error | learned step: residual across the error | error left, the neighbours' true Jacobians averaged (p95) | pressure distance to the target's pressures: nearest neurons / coarse command |"
+        "| seed | targets | nearest neuron px | coarse px: mean (p95) | coarse, nearest third px | coarse, farthest third px | first fine move: error left, learned Jacobian (p95) | error left, true Jacobian (p95) | learned step: gain along the error | learned step: residual across the error | error left, the neighbours' true Jacobians averaged (p95) | pressure distance to the target's pressures: nearest neurons / coarse command | nearest neurons: where their pressures land, from their centres px | coarse px, the same ranks' pieces exact (p95) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut all: Vec<[f32; 13]> = Vec::new();
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut all: Vec<[f32; 16]> = Vec::new();
     for arg in &args[1..] {
         let Some((seed, path)) = arg.split_once('=') else {
             eprintln!("{usage}");
@@ -219,6 +270,7 @@ fn main() {
         let learned = col(|r| r.learned_ratio, &rows);
         let exact = col(|r| r.true_ratio, &rows);
         let neighbours = col(|r| r.neighbours_true_ratio, &rows);
+        let exact_pieces = col(|r| r.exact_pieces_px, &rows);
         let v = [
             mean(&col(|r| r.nearest_px, &rows)),
             mean(&coarse),
@@ -233,21 +285,25 @@ fn main() {
             mean(&col(|r| r.across, &rows)),
             mean(&neighbours),
             p95(&neighbours),
+            mean(&col(|r| r.own_px, &rows)),
+            mean(&exact_pieces),
+            p95(&exact_pieces),
         ];
         let (near_p, coarse_p) = (
             mean(&col(|r| r.nearest_p, &rows)),
             mean(&col(|r| r.coarse_p, &rows)),
         );
         println!(
-            "| {seed} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | {:.3} | {:.3} | {:.3} ({:.3}) | {near_p:.2} / {coarse_p:.2} |",
+            "| {seed} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | {:.3} | {:.3} | {:.3} ({:.3}) | {near_p:.2} / {coarse_p:.2} | {:.1} | {:.1} ({:.1}) |",
             rows.len(),
-            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12]
+            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12],
+            v[13], v[14], v[15]
         );
         all.push(v);
     }
     let m = |i: usize| all.iter().map(|v| v[i]).sum::<f32>() / all.len() as f32;
     println!(
-        "| mean | | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | | | {:.3} ({:.3}) | |",
+        "| mean | | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} ({:.3}) | {:.3} ({:.3}) | | | {:.3} ({:.3}) | | {:.1} | {:.1} ({:.1}) |",
         m(0),
         m(1),
         m(2),
@@ -258,6 +314,9 @@ fn main() {
         m(7),
         m(8),
         m(11),
-        m(12)
+        m(12),
+        m(13),
+        m(14),
+        m(15)
     );
 }
