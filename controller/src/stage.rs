@@ -69,6 +69,10 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     /// first, then corrected by the secant of each move (valid from the trial's second fine
     /// move on; kept outside [`Trial`] so that starting a trial does not write it).
     a_bar: [[f32; D]; M],
+    /// Experiment (`StageConfig::anchor_weight`): each neuron's remembered visit.
+    anchor_p: [[f32; M]; N],
+    anchor_v: [[f32; D]; N],
+    anchor_ok: [bool; N],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -103,12 +107,16 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
+            anchor_p: [[0.0; M]; N],
+            anchor_v: [[0.0; D]; N],
+            anchor_ok: [false; N],
         }
     }
 
     /// Random initial tables, learning step 0, precomputed rank tables.
     pub fn init_random(&mut self, rng: &mut impl rand_core::RngCore) {
         self.net.init_random(rng, &self.cfg.init);
+        self.anchor_ok = [false; N];
         let active = self.cfg.active_neurons as usize;
         if active > 0 {
             // experiment: the neurons beyond `active` parked far outside any image
@@ -254,7 +262,42 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let exact = fine.budget()?;
         self.ranking
             .compute(&self.net.w, target, scratch, self.rank_mode);
-        self.begin_ranked(target, p_target, learn, exact)
+        let p = self.begin_ranked(target, p_target, learn, exact)?;
+        let aw = self.cfg.anchor_weight;
+        if learn || aw <= 0.0 {
+            return Ok(p);
+        }
+        // experiment: the map's error at the remembered visit nearest the target
+        let mut best: Option<(f32, usize)> = None;
+        for r in 0..(self.cfg.anchor_ranks as usize).min(K) {
+            let k = self.ranking.index(r);
+            if self.anchor_ok[k] {
+                let d = distance(&self.anchor_v[k], target);
+                if best.map_or(true, |(b, _)| d < b) {
+                    best = Some((d, k));
+                }
+            }
+        }
+        let Some((_, k)) = best else {
+            return Ok(p);
+        };
+        let (pa, va) = (self.anchor_p[k], self.anchor_v[k]);
+        let kept = self.ranking;
+        self.ranking
+            .compute(&self.net.w, &va, scratch, self.rank_mode);
+        let ranks = self.cfg.coarse_ranks as usize;
+        let p_va = rules::coarse_output(&self.net, &self.ranking, &self.alpha, &va, ranks);
+        self.ranking = kept;
+        let tr = &mut self.trial;
+        let mut out = tr.p_map;
+        for m in 0..M {
+            out[m] += aw * (pa[m] - p_va[m]);
+        }
+        let out = rules::clamp(&out, self.cfg.pressure_limit);
+        tr.p_bar = out;
+        tr.p_prev = out;
+        tr.p_last = out;
+        Ok(out)
     }
 
     fn begin_ranked(
@@ -353,6 +396,19 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         let target = self.trial.target;
         let d = distance(v, &target);
         let tr = &mut self.trial;
+        if tr.learn && tr.p_target.is_none() && self.cfg.anchor_weight > 0.0 {
+            // experiment (StageConfig::anchor_weight): remember the visit where it is the
+            // closest to a centre
+            for r in 0..(self.cfg.anchor_ranks as usize).min(K) {
+                let k = self.ranking.index(r);
+                let w = self.net.weight(k);
+                if !self.anchor_ok[k] || distance(v, &w) < distance(&self.anchor_v[k], &w) {
+                    self.anchor_ok[k] = true;
+                    self.anchor_p[k] = tr.p_last;
+                    self.anchor_v[k] = *v;
+                }
+            }
+        }
         if tr.learn && tr.p_target.is_none() {
             // experiment (StageConfig::replay): the move's pressure and where it arrived
             let n = match self.phase {

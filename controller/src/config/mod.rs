@@ -219,6 +219,13 @@ pub struct StageConfig {
     /// are parked far outside any image at initialisation, so they are never ranked);
     /// `0` = all.
     pub active_neurons: u16,
+    /// Experiment (branch exp-anchor): each neuron remembers the visited pair (applied
+    /// pressure, reached position) of the training trials closest to its centre; a mature
+    /// coarse move adds to the map's output at the target this weight times the map's error
+    /// at the remembered visit nearest the target, `pa - P_bar(va)` (`0` = off).
+    pub anchor_weight: f32,
+    /// Experiment: the target's ranks whose remembered visits are recorded and searched.
+    pub anchor_ranks: u16,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -445,6 +452,8 @@ impl Config {
             fine_pressure: 0.0,
             replay: 0,
             active_neurons: 0,
+            anchor_weight: 0.0,
+            anchor_ranks: 0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -572,6 +581,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     fine_pressure: 0.0,
     replay: 0,
     active_neurons: 0,
+    anchor_weight: 0.0,
+    anchor_ranks: 0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
