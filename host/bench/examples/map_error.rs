@@ -42,6 +42,11 @@ const AVERAGED: usize = 30;
 /// The nearest neurons whose pressures are compared with the target's.
 const NEAREST: usize = 5;
 
+/// The weight the network gives rank `r` in its averages, `exp(-r / 10)`.
+fn rank_weight(r: usize) -> f32 {
+    (-(r as f32) / 10.0).exp()
+}
+
 fn at_rest(plant: &mut Plant, p: &[f32; 5]) -> Option<[f32; 8]> {
     let p: [f32; 5] = core::array::from_fn(|i| p[i].clamp(-1.0, 1.0));
     plant.command(&p);
@@ -151,7 +156,7 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
         for (r, &k) in order[..AVERAGED].iter().enumerate() {
             let jk = *at_neuron[k].get_or_insert_with(|| jacobian(plant, &net.pressure(k)));
             if let Some(jk) = jk {
-                let al = (-(r as f32) / 10.0).exp();
+                let al = rank_weight(r);
                 j_avg += jk * al;
                 weight += al;
             }
@@ -178,7 +183,7 @@ fn measure(ctrl: &mut Controller, plant: &mut Plant) -> Vec<Row> {
             };
             let d = SVector::<f32, 8>::from_iterator(u.iter().zip(&xk).map(|(a, b)| a - b));
             let dpk = jkp * d;
-            let al = (-(r as f32) / 10.0).exp();
+            let al = rank_weight(r);
             for i in 0..5 {
                 p_sum[i] += al * (pk[i] + dpk[i]);
             }
