@@ -447,6 +447,40 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         } else {
             d
         };
+        let mut v_step = *v;
+        let d_est = if self.cfg.stop_projected > 0 && !tr.learn {
+            // experiment (StageConfig::stop_projected): the error across the directions the
+            // pressures move the arm in left out of the stop test
+            let a = if self.phase == Phase::AwaitFine {
+                self.a_bar
+            } else {
+                rules::mean_jacobian(
+                    &self.net,
+                    &self.ranking,
+                    &self.alpha,
+                    self.cfg.fine_ranks as usize,
+                )
+            };
+            let e = sub(v, &target);
+            if self.cfg.stop_projected >= 2 {
+                let n = (self.cfg.stop_projected as usize).min(K);
+                let mut ws = [[0.0f32; D]; K];
+                for (r, w) in ws.iter_mut().enumerate().take(n) {
+                    *w = self.net.weight(self.ranking.index(r));
+                }
+                let pe = pca_project::<D, M>(&ws[..n], &e);
+                if self.cfg.step_projected > 0 {
+                    for i in 0..D {
+                        v_step[i] = target[i] + pe[i];
+                    }
+                }
+                libm::sqrtf(pe.iter().map(|x| x * x).sum())
+            } else {
+                projected_distance(&a, &e).unwrap_or(d_est)
+            }
+        } else {
+            d_est
+        };
         let t = tr.outcome.t;
         // the averaged Jacobian of the next fine move, when the Jacobian update made it
         let mut a_bar = None;
@@ -589,7 +623,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             }
         };
         let limit = self.cfg.pressure_limit;
-        let from = if filtering { tr.est } else { *v };
+        let from = if filtering { tr.est } else { v_step };
         let mut p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, &from, f32::INFINITY);
         let w = self.cfg.map_step;
         if w > 0.0 && !tr.learn && tr.outcome.fine_moves == 0 {
@@ -681,6 +715,117 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         self.phase = Phase::Idle;
         StageStep::Done(self.trial.outcome)
     }
+}
+
+/// `|P e|` with `P = A^T (A A^T)^-1 A` the projection onto the row space of `a` (M x D):
+/// `y = A e`, `|P e|^2 = y^T (A A^T)^-1 y`; `None` when `A A^T` is singular.
+fn projected_distance<const D: usize, const M: usize>(a: &[[f32; D]; M], e: &[f32; D]) -> Option<f32> {
+    let mut g = [[0.0f32; M]; M];
+    let mut y = [0.0f32; M];
+    for i in 0..M {
+        y[i] = (0..D).map(|k| a[i][k] * e[k]).sum();
+        for j in 0..M {
+            g[i][j] = (0..D).map(|k| a[i][k] * a[j][k]).sum();
+        }
+    }
+    // Gaussian elimination with partial pivoting: z = G^-1 y
+    let mut z = y;
+    for c in 0..M {
+        let piv = (c..M).max_by(|&p, &q| g[p][c].abs().total_cmp(&g[q][c].abs()))?;
+        if !(g[piv][c].abs() > 1e-20) {
+            return None;
+        }
+        g.swap(c, piv);
+        z.swap(c, piv);
+        for r in c + 1..M {
+            let f = g[r][c] / g[c][c];
+            for k in c..M {
+                g[r][k] -= f * g[c][k];
+            }
+            z[r] -= f * z[c];
+        }
+    }
+    for c in (0..M).rev() {
+        let mut s = z[c];
+        for k in c + 1..M {
+            s -= g[c][k] * z[k];
+        }
+        z[c] = s / g[c][c];
+    }
+    let q: f32 = (0..M).map(|i| y[i] * z[i]).sum();
+    (q.is_finite() && q >= 0.0).then(|| libm::sqrtf(q))
+}
+
+/// `|P e|` with `P` the projection onto the `M` principal directions of the points `ws`
+/// (their covariance's leading eigenvectors, cyclic Jacobi).
+fn pca_project<const D: usize, const M: usize>(ws: &[[f32; D]], e: &[f32; D]) -> [f32; D] {
+    let n = ws.len() as f32;
+    let mut mean = [0.0f32; D];
+    for w in ws {
+        for i in 0..D {
+            mean[i] += w[i] / n;
+        }
+    }
+    let mut c = [[0.0f32; D]; D];
+    for w in ws {
+        for i in 0..D {
+            for j in 0..D {
+                c[i][j] += (w[i] - mean[i]) * (w[j] - mean[j]);
+            }
+        }
+    }
+    let mut v = [[0.0f32; D]; D];
+    for i in 0..D {
+        v[i][i] = 1.0;
+    }
+    for _sweep in 0..30 {
+        let mut off = 0.0;
+        for p in 0..D {
+            for q in p + 1..D {
+                off += c[p][q] * c[p][q];
+            }
+        }
+        if off < 1e-12 {
+            break;
+        }
+        for p in 0..D {
+            for q in p + 1..D {
+                if c[p][q].abs() < 1e-20 {
+                    continue;
+                }
+                let theta = (c[q][q] - c[p][p]) / (2.0 * c[p][q]);
+                let t = theta.signum() / (theta.abs() + libm::sqrtf(theta * theta + 1.0));
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let cs = 1.0 / libm::sqrtf(t * t + 1.0);
+                let sn = t * cs;
+                for k in 0..D {
+                    let (ckp, ckq) = (c[k][p], c[k][q]);
+                    c[k][p] = cs * ckp - sn * ckq;
+                    c[k][q] = sn * ckp + cs * ckq;
+                }
+                for k in 0..D {
+                    let (cpk, cqk) = (c[p][k], c[q][k]);
+                    c[p][k] = cs * cpk - sn * cqk;
+                    c[q][k] = sn * cpk + cs * cqk;
+                }
+                for k in 0..D {
+                    let (vkp, vkq) = (v[k][p], v[k][q]);
+                    v[k][p] = cs * vkp - sn * vkq;
+                    v[k][q] = sn * vkp + cs * vkq;
+                }
+            }
+        }
+    }
+    let mut order: [usize; D] = core::array::from_fn(|i| i);
+    order.sort_by(|&a, &b| c[b][b].total_cmp(&c[a][a]));
+    let mut out = [0.0f32; D];
+    for &k in order.iter().take(M) {
+        let y: f32 = (0..D).map(|i| v[i][k] * e[i]).sum();
+        for i in 0..D {
+            out[i] += y * v[i][k];
+        }
+    }
+    out
 }
 
 /// The TRN is a stage law: it learns when asked (supervised priming, unsupervised

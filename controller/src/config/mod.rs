@@ -226,6 +226,16 @@ pub struct StageConfig {
     pub anchor_weight: f32,
     /// Experiment: the target's ranks whose remembered visits are recorded and searched.
     pub anchor_ranks: u16,
+    /// Experiment (branch exp-proj): a mature trial's stop test (8.7) measures the error
+    /// projected onto the row space of the trial's averaged Jacobian (8.14), the positions'
+    /// directions the pressures can move the arm in: `|P e|` with `P = A^T (A A^T)^-1 A`,
+    /// which leaves out the camera noise across them (`0` = off, the paper's `|e|`); `n >= 2`:
+    /// onto the `M` principal directions of the `n` nearest centres instead (the ranking's:
+    /// the target's, or after the map's step the reached position's).
+    pub stop_projected: u8,
+    /// Experiment: with `stop_projected` >= 2, a mature fine move steps from the projected
+    /// error too.
+    pub step_projected: u8,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -454,6 +464,8 @@ impl Config {
             active_neurons: 0,
             anchor_weight: 0.0,
             anchor_ranks: 0,
+            stop_projected: 0,
+            step_projected: 0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -583,6 +595,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     active_neurons: 0,
     anchor_weight: 0.0,
     anchor_ranks: 0,
+    stop_projected: 0,
+    step_projected: 0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
