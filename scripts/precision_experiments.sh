@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-anchor (and its ancestors exp-replay and exp-trial-estimate; all
-# merged into main's history without their changes), which add them to the controller and
-# their rows to studies/precision.toml. This builds that commit in a temporary worktree, runs
-# its rows on the tuning seeds 1-4 and writes docs/results/precision-experiments.md, then the
-# best three with the 1,000-trial row they change on the reporting seeds 100-109 into
-# docs/results/precision-experiments-heldout.md (both copied into docs/diagnosis.md by
-# scripts/readme_sections.py). About 16 + 10 minutes on 2 cores after the build.
+# on the commit tagged exp-proj (and its ancestors exp-anchor, exp-replay and
+# exp-trial-estimate; all merged into main's history without their changes), which add them
+# to the controller and their rows to studies/precision.toml. This builds that commit in a
+# temporary worktree, runs its rows on the tuning seeds 1-4 and writes
+# docs/results/precision-experiments.md, then the best four with the 1,000-trial row they
+# change on the reporting seeds 100-109 into docs/results/precision-experiments-heldout.md
+# (both copied into docs/diagnosis.md by scripts/readme_sections.py). About 25 + 13 minutes
+# on 2 cores after the build.
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=c7357bdb8213a322bbc876dee43bf17f689e1330  # the commit tagged exp-anchor
+rev=6bbe4806c9462e58115b97bb66175630da9bc69e  # the commit tagged exp-proj
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -22,13 +23,15 @@ rows+=,est-0.42-0.15,est-0.42-0.3,est-0.42-0.5,est-f0.3-b1,est-f0.3-b2,est-f0.3-
 rows+=,c1000-est-f0.3-b2,tol-1.1,tol-1.2
 rows+=,fine-p-1,fine-p-0.5,replay-1,replay-3,neurons-500,neurons-250
 rows+=,c1000-replay-1,c1000-fine-p-1,c1000-neurons-250,anchor-1-r8,anchor-0.5-r8,anchor-1-r32
+rows+=,stop-proj,stop-proj-tol-0.9,stop-proj-tol-0.8,tol-0.9,stop-pca8-tol-0.9,stop-pca16-tol-1.0
+rows+=,stop-pca16-tol-0.9,step-pca16-tol-0.9,c1000-stop-pca8-tol-1.0,c1000-stop-pca8-tol-0.9
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
     "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/runs" \
         --quiet --configs "$rows" "$@" > "$tmp/table.md"
     "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/heldout" \
-        --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2,c1000-replay-1 \
+        --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2,c1000-replay-1,c1000-stop-pca8-tol-0.9 \
         --first-seed 100 --seeds 10 "$@" > "$tmp/heldout.md"
 )
 mv "$tmp/table.md" "$root/docs/results/precision-experiments.md"
