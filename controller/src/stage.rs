@@ -609,12 +609,48 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 self.a_bar
             }
             None => {
-                let a = rules::mean_jacobian(
+                let mut a = rules::mean_jacobian(
                     &self.net,
                     &self.ranking,
                     &self.alpha,
                     self.cfg.fine_ranks as usize,
                 );
+                let np = (self.cfg.jac_by_pressure as usize).min(K);
+                if np > 0 && !tr.learn {
+                    // experiment (StageConfig::jac_by_pressure): the Jacobians of the
+                    // neurons whose pressures are nearest the last command
+                    let mut best = [(f32::INFINITY, 0usize); K];
+                    for k in 0..N {
+                        let pk = self.net.pressure(k);
+                        let d2: f32 = (0..M).map(|m| (pk[m] - tr.p_last[m]).powi(2)).sum();
+                        if d2 < best[np - 1].0 {
+                            let mut i = np - 1;
+                            while i > 0 && best[i - 1].0 > d2 {
+                                best[i] = best[i - 1];
+                                i -= 1;
+                            }
+                            best[i] = (d2, k);
+                        }
+                    }
+                    let mut acc = [[0.0f32; D]; M];
+                    let mut sum = 0.0;
+                    for (r, &(_, k)) in best.iter().enumerate().take(np) {
+                        let al = self.alpha.value[r];
+                        let ak = self.net.jacobian(k);
+                        for m in 0..M {
+                            for d in 0..D {
+                                acc[m][d] += al * ak[m][d];
+                            }
+                        }
+                        sum += al;
+                    }
+                    let mix = self.cfg.jac_by_pressure_mix;
+                    for m in 0..M {
+                        for d in 0..D {
+                            a[m][d] = mix * acc[m][d] / sum + (1.0 - mix) * a[m][d];
+                        }
+                    }
+                }
                 if !tr.learn {
                     // held for the trial's later fine moves
                     self.a_bar = a;

@@ -236,6 +236,13 @@ pub struct StageConfig {
     /// Experiment: with `stop_projected` >= 2, a mature fine move steps from the projected
     /// error too.
     pub step_projected: u8,
+    /// Experiment (branch exp-prank): a mature trial's averaged Jacobian (8.14) from the
+    /// `jac_by_pressure` neurons whose pressures are nearest the command the coarse move
+    /// applied (ranked in pressure space, the same falloff), blended with the target's by
+    /// `jac_by_pressure_mix` (`0` = off).
+    pub jac_by_pressure: u8,
+    /// Experiment: the pressure-ranked average's share (1 = it alone).
+    pub jac_by_pressure_mix: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -466,6 +473,8 @@ impl Config {
             anchor_ranks: 0,
             stop_projected: 0,
             step_projected: 0,
+            jac_by_pressure: 0,
+            jac_by_pressure_mix: 1.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -597,6 +606,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     anchor_ranks: 0,
     stop_projected: 0,
     step_projected: 0,
+    jac_by_pressure: 0,
+    jac_by_pressure_mix: 1.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
