@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-proj (and its ancestors exp-anchor, exp-replay and
+# on the commit tagged exp-prank (and its ancestors exp-proj, exp-anchor, exp-replay and
 # exp-trial-estimate; all merged into main's history without their changes), which add them
 # to the controller and their rows to studies/precision.toml. This builds that commit in a
 # temporary worktree, runs its rows on the tuning seeds 1-4 and writes
@@ -12,7 +12,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=6bbe4806c9462e58115b97bb66175630da9bc69e  # the commit tagged exp-proj
+rev=7cf50d31d981e4e0d994cb3bfa7483dc0e67de00  # the commit tagged exp-prank
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -25,6 +25,7 @@ rows+=,fine-p-1,fine-p-0.5,replay-1,replay-3,neurons-500,neurons-250
 rows+=,c1000-replay-1,c1000-fine-p-1,c1000-neurons-250,anchor-1-r8,anchor-0.5-r8,anchor-1-r32
 rows+=,stop-proj,stop-proj-tol-0.9,stop-proj-tol-0.8,tol-0.9,stop-pca8-tol-0.9,stop-pca16-tol-1.0
 rows+=,stop-pca16-tol-0.9,step-pca16-tol-0.9,c1000-stop-pca8-tol-1.0,c1000-stop-pca8-tol-0.9
+rows+=,jac-pressure-9,jac-pressure-9-half,jac-pressure-24
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
