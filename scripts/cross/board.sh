@@ -15,9 +15,9 @@ case $action in
     build) build_board "$board" ;;
     run)
         command -v probe-rs >/dev/null || { echo "board.sh: probe-rs is not installed (its runner flashes the board)" >&2; exit 1; }
-        cd "$root/firmware/boards/$board"
-        CARGO_TARGET_DIR="$root/firmware/boards/target" exec $CARGO run --release \
-            --config "$(remap_paths thumbv7em-none-eabihf)" --bin trn-controller
+        # the image measured by budget.sh, bytes and all: built through the same fixed path
+        # (whose lock other checkouts' cross builds wait for while the board runs)
+        with_fixed_src cargo_board "$board" run --release --bin trn-controller
         ;;
     *) echo "board.sh: ACTION is build or run" >&2; exit 2 ;;
 esac

@@ -9,7 +9,28 @@ QEMU_ARM="$root/.vm/qemu-arm/root/usr/bin/qemu-system-arm"
 #   remap_paths TARGET    prints a `--config` value that cargo merges into the target's rustflags
 remap_paths() {
     local home=${CARGO_HOME:-$HOME/.cargo}
-    echo "target.$1.rustflags=[\"--remap-path-prefix=$root=/trn\", \"--remap-path-prefix=$home=/cargo\"]"
+    echo "target.$1.rustflags=[\"--remap-path-prefix=$src=/trn\", \"--remap-path-prefix=$home=/cargo\"]"
+}
+# Cargo hashes a path dependency outside the building workspace (the controller, the node,
+# the store: outside firmware/ and firmware/boards/) by its absolute path, and the hash names
+# symbols: two clones at different paths built images a few bytes apart (the G474's 8 B).
+# So every image builds through one fixed path, a symbol link to this checkout
+# ($TRN_CROSS_SRC, default /tmp/trn-cross-src), held under a lock for the build (builds
+# from other checkouts wait): the same sources give the same bytes wherever they sit.
+#   with_fixed_src COMMAND...    runs COMMAND with $src the fixed path to this checkout
+src=$root
+with_fixed_src() {
+    local link=${TRN_CROSS_SRC:-/tmp/trn-cross-src}
+    if [ -e "$link" ] && [ ! -L "$link" ]; then
+        echo "cross: $link exists and is not a symbol link: set TRN_CROSS_SRC to a free path" >&2
+        return 1
+    fi
+    (
+        flock -x 9 || exit 1
+        ln -sfn "$root" "$link"
+        src=$link
+        "$@"
+    ) 9>"$link.lock"
 }
 # Every firmware variant builds in the one target directory `firmware/target` (shared core,
 # nalgebra and build scripts: one directory per variant cost 0.5 GB of disk each); cargo
@@ -19,8 +40,7 @@ remap_paths() {
 # (the compact variants build without the default features: no Broyden servo, firmware/Cargo.toml)
 build_firmware() {
     local variant=$1 target=$2 features=${3:-} defaults=${4:-}
-    (cd "$root/firmware" && CARGO_TARGET_DIR="$root/firmware/target" $CARGO build --quiet --release --target "$target" \
-        --config "$(remap_paths "$target")" ${features:+--features "$features"} $defaults) >&2 || return 1
+    with_fixed_src cargo_firmware "$target" "$features" "$defaults" >&2 || return 1
     mkdir -p "$root/firmware/target/elf"
     cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
     echo "$root/firmware/target/elf/trn-firmware-$variant"
@@ -32,9 +52,25 @@ build_firmware() {
 #   build_board BOARD [PROGRAM]    prints the ELF's path
 build_board() {
     local board=$1 program=${2:-trn-controller}
-    (cd "$root/firmware/boards/$board" && CARGO_TARGET_DIR="$root/firmware/boards/target" $CARGO build --quiet --release \
-        --config "$(remap_paths thumbv7em-none-eabihf)" --bin "$program") >&2 || return 1
+    with_fixed_src cargo_board "$board" build --quiet --release --bin "$program" >&2 || return 1
     mkdir -p "$root/firmware/boards/target/elf"
     cp "$root/firmware/boards/target/thumbv7em-none-eabihf/release/$program" "$root/firmware/boards/target/elf/$board-$program"
     echo "$root/firmware/boards/target/elf/$board-$program"
+}
+# The builds themselves, run by with_fixed_src: from $src, into the checkout's target
+# directories, named through $src too (build scripts' output paths are then remapped).
+cargo_firmware() {
+    local target=$1 features=$2 defaults=$3
+    # shellcheck disable=SC2086 # $defaults is one flag or none
+    (cd "$src/firmware" && CARGO_TARGET_DIR="$src/firmware/target" $CARGO build --quiet --release \
+        --manifest-path "$src/firmware/Cargo.toml" --target "$target" \
+        --config "$(remap_paths "$target")" ${features:+--features "$features"} $defaults)
+}
+#   cargo_board BOARD CARGO-ARGS...    `cargo CARGO-ARGS` in the board's directory (build, run)
+cargo_board() {
+    local board=$1
+    shift
+    (cd "$src/firmware/boards/$board" && CARGO_TARGET_DIR="$src/firmware/boards/target" $CARGO "$@" \
+        --manifest-path "$src/firmware/boards/$board/Cargo.toml" \
+        --config "$(remap_paths thumbv7em-none-eabihf)")
 }
