@@ -14,7 +14,7 @@ remap_paths() {
 # Cargo hashes a path dependency outside the building workspace (the controller, the node,
 # the store: outside firmware/ and firmware/boards/) by its absolute path, and the hash names
 # symbols: two clones at different paths built images a few bytes apart (the G474's 8 B).
-# So every image builds through one fixed path, a symbol link to this checkout
+# So every image builds through one fixed path, a symbolic link to this checkout
 # ($TRN_CROSS_SRC, default /tmp/trn-cross-src), held under a lock for the build (builds
 # from other checkouts wait): the same sources give the same bytes wherever they sit.
 #   with_fixed_src COMMAND...    runs COMMAND with $src the fixed path to this checkout
@@ -22,7 +22,7 @@ src=$root
 with_fixed_src() {
     local link=${TRN_CROSS_SRC:-/tmp/trn-cross-src}
     if [ -e "$link" ] && [ ! -L "$link" ]; then
-        echo "cross: $link exists and is not a symbol link: set TRN_CROSS_SRC to a free path" >&2
+        echo "cross: $link exists and is not a symbolic link: set TRN_CROSS_SRC to a free path" >&2
         return 1
     fi
     (
