@@ -17,7 +17,8 @@ case $action in
         command -v probe-rs >/dev/null || { echo "board.sh: probe-rs is not installed (its runner flashes the board)" >&2; exit 1; }
         # the image measured by budget.sh, bytes and all: built through the same fixed path
         # (whose lock other checkouts' cross builds wait for while the board runs)
-        with_fixed_src cargo_board "$board" run --release --bin trn-controller
+        with_fixed_src cargo_at "firmware/boards/$board" firmware/boards/target thumbv7em-none-eabihf \
+            run --release --bin trn-controller
         ;;
     *) echo "board.sh: ACTION is build or run" >&2; exit 2 ;;
 esac

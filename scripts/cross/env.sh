@@ -40,7 +40,9 @@ with_fixed_src() {
 # (the compact variants build without the default features: no Broyden servo, firmware/Cargo.toml)
 build_firmware() {
     local variant=$1 target=$2 features=${3:-} defaults=${4:-}
-    with_fixed_src cargo_firmware "$target" "$features" "$defaults" >&2 || return 1
+    # shellcheck disable=SC2086 # $defaults is one flag or none
+    with_fixed_src cargo_at firmware firmware/target "$target" build --quiet --release --target "$target" \
+        ${features:+--features "$features"} $defaults >&2 || return 1
     mkdir -p "$root/firmware/target/elf"
     cp "$root/firmware/target/$target/release/trn-firmware" "$root/firmware/target/elf/trn-firmware-$variant"
     echo "$root/firmware/target/elf/trn-firmware-$variant"
@@ -52,25 +54,20 @@ build_firmware() {
 #   build_board BOARD [PROGRAM]    prints the ELF's path
 build_board() {
     local board=$1 program=${2:-trn-controller}
-    with_fixed_src cargo_board "$board" build --quiet --release --bin "$program" >&2 || return 1
+    with_fixed_src cargo_at "firmware/boards/$board" firmware/boards/target thumbv7em-none-eabihf \
+        build --quiet --release --bin "$program" >&2 || return 1
     mkdir -p "$root/firmware/boards/target/elf"
     cp "$root/firmware/boards/target/thumbv7em-none-eabihf/release/$program" "$root/firmware/boards/target/elf/$board-$program"
     echo "$root/firmware/boards/target/elf/$board-$program"
 }
-# The builds themselves, run by with_fixed_src: from $src, into the checkout's target
-# directories, named through $src too (build scripts' output paths are then remapped).
-cargo_firmware() {
-    local target=$1 features=$2 defaults=$3
-    # shellcheck disable=SC2086 # $defaults is one flag or none
-    (cd "$src/firmware" && CARGO_TARGET_DIR="$src/firmware/target" $CARGO build --quiet --release \
-        --manifest-path "$src/firmware/Cargo.toml" --target "$target" \
-        --config "$(remap_paths "$target")" ${features:+--features "$features"} $defaults)
-}
-#   cargo_board BOARD CARGO-ARGS...    `cargo CARGO-ARGS` in the board's directory (build, run)
-cargo_board() {
-    local board=$1
-    shift
-    (cd "$src/firmware/boards/$board" && CARGO_TARGET_DIR="$src/firmware/boards/target" $CARGO "$@" \
-        --manifest-path "$src/firmware/boards/$board/Cargo.toml" \
-        --config "$(remap_paths thumbv7em-none-eabihf)")
+# The build itself, run by with_fixed_src: the manifest in $src/DIR (from its directory, so
+# that its .cargo/config.toml applies), into $src/TARGET-DIR (the checkout's target
+# directory named through $src, so build scripts' output paths are remapped too), with
+# TRIPLE's source paths remapped.
+#   cargo_at DIR TARGET-DIR TRIPLE CARGO-ARGS...
+cargo_at() {
+    local dir=$1 target_dir=$2 triple=$3
+    shift 3
+    (cd "$src/$dir" && CARGO_TARGET_DIR="$src/$target_dir" $CARGO "$@" \
+        --manifest-path "$src/$dir/Cargo.toml" --config "$(remap_paths "$triple")")
 }
