@@ -43,6 +43,9 @@ struct Trial<const D: usize, const M: usize> {
     est: [f32; D],
     est_var: f32,
     aim: [f32; D],
+    /// Experiment (`StageConfig::near_avg`): the trial's readings so far within
+    /// `near_avg` times the tolerance.
+    near: u8,
     /// Experiment (`StageConfig::replay`): each move's applied pressure and the position it
     /// reached, the coarse move first.
     moves_p: [[f32; M]; TRACE_LEN],
@@ -102,6 +105,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 est: [0.0; D],
                 est_var: 0.0,
                 aim: [0.0; D],
+                near: 0,
                 moves_p: [[0.0; M]; TRACE_LEN],
                 moves_v: [[0.0; D]; TRACE_LEN],
                 outcome: ZERO_OUTCOME,
@@ -366,6 +370,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             est: [0.0; D],
             est_var: 0.0,
             aim: [0.0; D],
+            near: 0,
             moves_p: [[0.0; M]; TRACE_LEN],
             moves_v: [[0.0; D]; TRACE_LEN],
             outcome: StageOutcome {
@@ -680,6 +685,18 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             let gain = d_est * d_est / (d_est * d_est + noise * noise);
             for m in 0..M {
                 p_fine[m] = tr.p_last[m] + gain * (p_fine[m] - tr.p_last[m]);
+            }
+        }
+        let near_avg = self.cfg.near_avg;
+        if near_avg > 0.0 && !tr.learn {
+            // experiment (StageConfig::near_avg): near the target, the n-th step goes 1 / n
+            // of the way, so the command follows the mean of the readings' corrections
+            if d_est <= near_avg * tr.outcome.tolerance {
+                tr.near = tr.near.saturating_add(1);
+                let gain = 1.0 / tr.near as f32;
+                for m in 0..M {
+                    p_fine[m] = tr.p_last[m] + gain * (p_fine[m] - tr.p_last[m]);
+                }
             }
         }
         let boost = self.cfg.reverse_boost;

@@ -243,6 +243,11 @@ pub struct StageConfig {
     pub jac_by_pressure: u8,
     /// Experiment: the pressure-ranked average's share (1 = it alone).
     pub jac_by_pressure_mix: f32,
+    /// Experiment (branch exp-avg): a mature fine move from a reading within `near_avg`
+    /// times the tolerance goes `1 / n` of its step, `n` the trial's count of such readings
+    /// so far (a stochastic-approximation gain: the command follows the mean of the
+    /// readings' corrections, not the last one's noise; `0` = off).
+    pub near_avg: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -475,6 +480,7 @@ impl Config {
             step_projected: 0,
             jac_by_pressure: 0,
             jac_by_pressure_mix: 1.0,
+            near_avg: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -608,6 +614,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     step_projected: 0,
     jac_by_pressure: 0,
     jac_by_pressure_mix: 1.0,
+    near_avg: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
