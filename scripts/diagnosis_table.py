@@ -4,13 +4,26 @@ files of `trn study studies/diagnosis.toml` (default folder: out/diagnosis/runs)
 
 Per row: the coarse move's combined noise-free error (px) on the held-out targets, as the
 mean over seeds of each seed's mean, the mean over seeds of each seed's 95th percentile over
-its targets, and the worst seed (its mean, and which seed); then the mean after 2 fine moves,
-the noise floor and the failed trials (of the held-out evaluation, and of the whole run:
-training, snapshots, evaluations), for context. Rows in the study's order.
+its targets, and the worst seed (its mean, and which seed); then the mean after 2 fine moves
+and after the budget's 6 (noise-free), the fine moves per network trial with the stop rule,
+each seed's 95th percentile of the measured error after the budget over its noise floor (the
+mean over seeds and the worst; none when the cameras are noise-free), the noise floor and
+the failed trials (of the held-out evaluation, and of the whole run: training, snapshots,
+evaluations), for context. Rows in the study's order.
 """
 import json
 import pathlib
 import sys
+
+
+def p95_over_floor(dep: dict):
+    """The 95th percentile of the measured error after the budget over the seed's noise
+    floor (the study table's column), or None without a floor."""
+    p95 = dep.get("combined_measured_p95_px") or [None]
+    floor = dep["noise_floor_px"]
+    if p95[-1] is None or not floor:
+        return None
+    return p95[-1] / floor
 
 
 def main() -> int:
@@ -39,6 +52,9 @@ def main() -> int:
                 "coarse": coarse,
                 "p95": p95,
                 "fine2": dep["combined_true_px"][2] if len(dep["combined_true_px"]) > 2 else None,
+                "budget": dep["combined_true_px"][-1],
+                "moves": run["report"]["fine_moves_mean"],
+                "p95_floor": p95_over_floor(dep),
                 "floor": dep["noise_floor_px"],
                 "failed": dep["failed_trials"],
                 "failed_run": run["report"]["failed_trials"],
@@ -46,10 +62,11 @@ def main() -> int:
         )
     print(
         "| configuration | seeds | coarse move: mean px | p95 over targets px (mean of seeds) "
-        "| worst seed px (seed) | after 2 fine px | noise floor px "
+        "| worst seed px (seed) | after 2 fine px | after 6 fine px | fine moves, stop rule "
+        "| each seed's p95 after 6 / its floor: mean (worst) | noise floor px "
         "| failed trials: held-out / whole run |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for _, name in sorted(order):
         runs = sorted(rows[name], key=lambda r: r["seed"])
         n = len(runs)
@@ -60,10 +77,15 @@ def main() -> int:
         f2 = [r["fine2"] for r in runs if r["fine2"] is not None]
         fine2 = f"{sum(f2) / len(f2):.2f}" if f2 else "-"
         floor = sum(r["floor"] for r in runs) / n
+        budget = sum(r["budget"] for r in runs) / n
+        moves = sum(r["moves"] for r in runs) / n
+        ratios = [r["p95_floor"] for r in runs if r["p95_floor"] is not None]
+        tail = f"{sum(ratios) / len(ratios):.2f} ({max(ratios):.2f})" if ratios else "-"
         seeds = f"{runs[0]['seed']}-{runs[-1]['seed']}" if n > 1 else str(runs[0]["seed"])
         print(
             f"| {name} | {seeds} | {mean:.1f} | {p95} | {worst['coarse']:.1f} ({worst['seed']}) "
-            f"| {fine2} | {floor:.2f} | {sum(r['failed'] for r in runs)} / "
+            f"| {fine2} | {budget:.2f} | {moves:.2f} | {tail} | {floor:.2f} "
+            f"| {sum(r['failed'] for r in runs)} / "
             f"{sum(r['failed_run'] for r in runs)} |"
         )
     return 0
