@@ -699,6 +699,16 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 }
             }
         }
+        let dead = self.cfg.step_deadband;
+        if dead > 0.0 && !tr.learn && tr.outcome.fine_moves > 0 {
+            // experiment (StageConfig::step_deadband): each channel's step soft-thresholded,
+            // a play band of the controller's own
+            for m in 0..M {
+                let step = p_fine[m] - tr.p_last[m];
+                let kept = (libm::fabsf(step) - dead).max(0.0);
+                p_fine[m] = tr.p_last[m] + libm::copysignf(kept, step);
+            }
+        }
         let boost = self.cfg.reverse_boost;
         if boost != 0.0 && !tr.learn && tr.outcome.fine_moves > 0 {
             for m in 0..M {

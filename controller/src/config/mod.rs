@@ -248,6 +248,10 @@ pub struct StageConfig {
     /// so far (a stochastic-approximation gain: the command follows the mean of the
     /// readings' corrections, not the last one's noise; `0` = off).
     pub near_avg: f32,
+    /// Experiment (branch exp-deadband): after a mature trial's first fine move, each
+    /// channel's step shrunk by this much (pressure units; a step shorter than it is none):
+    /// a play band of the controller's own (`0` = off).
+    pub step_deadband: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -481,6 +485,7 @@ impl Config {
             jac_by_pressure: 0,
             jac_by_pressure_mix: 1.0,
             near_avg: 0.0,
+            step_deadband: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -615,6 +620,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     jac_by_pressure: 0,
     jac_by_pressure_mix: 1.0,
     near_avg: 0.0,
+    step_deadband: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
