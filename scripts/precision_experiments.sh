@@ -1,18 +1,19 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-avg (and its ancestors exp-prank, exp-proj, exp-anchor, exp-replay
-# and exp-trial-estimate; all merged into main's history without their changes), which add them
+# on the commit tagged exp-deadband (and its ancestors exp-avg, exp-prank, exp-proj,
+# exp-anchor, exp-replay and exp-trial-estimate; all merged into main's history without
+# their changes), which add them
 # to the controller and their rows to studies/precision.toml. This builds that commit in a
 # temporary worktree, runs its rows on the tuning seeds 1-4 and writes
 # docs/results/precision-experiments.md, then the best five with the 1,000-trial row they
 # change on the reporting seeds 100-109 into docs/results/precision-experiments-heldout.md
-# (both copied into docs/diagnosis.md by scripts/readme_sections.py). About 35 + 13 minutes
+# (both copied into docs/diagnosis.md by scripts/readme_sections.py). About 37 + 13 minutes
 # on 2 cores after the build.
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=e92f5c699adc663bfa4167fb36c044af6521de4f  # the commit tagged exp-avg
+rev=dbac2efd481ff186b6655afc9a45b461420a6977  # the commit tagged exp-deadband
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -27,6 +28,7 @@ rows+=,stop-proj,stop-proj-tol-0.9,stop-proj-tol-0.8,tol-0.9,stop-pca8-tol-0.9,s
 rows+=,stop-pca16-tol-0.9,step-pca16-tol-0.9,c1000-stop-pca8-tol-1.0,c1000-stop-pca8-tol-0.9
 rows+=,jac-pressure-9,jac-pressure-9-half,jac-pressure-24
 rows+=,avg-1.5,avg-2,avg-3,c1000-avg-2,avg-1,avg-1.5-nosec,c1000-avg-1.5
+rows+=,dead-0.003,dead-0.01,dead-0.03
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
