@@ -77,14 +77,15 @@ def main() -> int:
         f2 = [r["fine2"] for r in runs if r["fine2"] is not None]
         fine2 = f"{sum(f2) / len(f2):.2f}" if f2 else "-"
         floor = sum(r["floor"] for r in runs) / n
-        budget = sum(r["budget"] for r in runs) / n
+        b6 = [r["budget"] for r in runs if r["budget"] is not None]
+        budget = f"{sum(b6) / len(b6):.2f}" if b6 else "-"
         moves = sum(r["moves"] for r in runs) / n
         ratios = [r["p95_floor"] for r in runs if r["p95_floor"] is not None]
         tail = f"{sum(ratios) / len(ratios):.2f} ({max(ratios):.2f})" if ratios else "-"
         seeds = f"{runs[0]['seed']}-{runs[-1]['seed']}" if n > 1 else str(runs[0]["seed"])
         print(
             f"| {name} | {seeds} | {mean:.1f} | {p95} | {worst['coarse']:.1f} ({worst['seed']}) "
-            f"| {fine2} | {budget:.2f} | {moves:.2f} | {tail} | {floor:.2f} "
+            f"| {fine2} | {budget} | {moves:.2f} | {tail} | {floor:.2f} "
             f"| {sum(r['failed'] for r in runs)} / "
             f"{sum(r['failed_run'] for r in runs)} |"
         )
