@@ -2,13 +2,13 @@
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
 # on the commit tagged exp-deadband (and its ancestors exp-avg, exp-prank, exp-proj,
 # exp-anchor, exp-replay and exp-trial-estimate; all merged into main's history without
-# their changes), which add them
-# to the controller and their rows to studies/precision.toml. This builds that commit in a
-# temporary worktree, runs its rows on the tuning seeds 1-4 and writes
-# docs/results/precision-experiments.md, then the best five with the 1,000-trial row they
-# change on the reporting seeds 100-109 into docs/results/precision-experiments-heldout.md
-# (both copied into docs/diagnosis.md by scripts/readme_sections.py). About 37 + 13 minutes
-# on 2 cores after the build.
+# their changes), which add them to the controller and their rows to studies/precision.toml.
+# This builds that commit in a temporary worktree, runs its rows on the tuning seeds 1-4 and
+# writes docs/results/precision-experiments.md, then the best five with the 1,000-trial row
+# they change on the reporting seeds 100-109 into
+# docs/results/precision-experiments-heldout.md (both copied into docs/diagnosis.md by
+# scripts/readme_sections.py). About 35 + 10 minutes on 2 cores after the build (estimated:
+# the whole script took 69 minutes, its first 47 beside the test suite at a higher priority).
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
