@@ -15,8 +15,9 @@
 //! ```
 //! (defaults 60 trials, 0.05, seeds 100, 101, 102): each seed paced at 500 kbit/s and
 //! unpaced; a Markdown table on stdout. `--check` fails when a paced ratio is above 3, a
-//! lossy run's scores differ from its clean run's, or nothing was dropped. A benchmark, not a
-//! test: the ratio depends on the machine's load (`scripts/lossy_slcan.sh`).
+//! lossy run's scores differ from its clean run's (it says which: the failed or aborted
+//! trials' counts, or the first trial where a curve differs), or nothing was dropped. A
+//! benchmark, not a test: the ratio depends on the machine's load (`scripts/lossy_slcan.sh`).
 
 use std::time::{Duration, Instant};
 
@@ -116,21 +117,14 @@ struct Row {
     sent: u64,
     repeats: u32,
     same: bool,
+    /// What differs when the scores do not ([`what_differs`]).
+    differs: String,
 }
 
 fn row(trials: usize, faults: &str, seed: u64, bitrate: u32) -> Row {
     let (clean, clean_s) = one(trials, None, seed, bitrate);
     let (lossy, lossy_s) = one(trials, Some(faults), seed, bitrate);
-    let scores = |r: &Report| {
-        (
-            r.stage1_error_px.clone(),
-            r.stage2_error_px.clone(),
-            r.fine_moves.clone(),
-            r.fine_moves_stage2.clone(),
-            r.aborted_trials,
-            r.failed_trials,
-        )
-    };
+    let differs = what_differs(&clean, &lossy);
     let injected = lossy.bus_stats.injected.clone().unwrap_or_default();
     let runner = lossy.bus_stats.runner;
     Row {
@@ -141,8 +135,63 @@ fn row(trials: usize, faults: &str, seed: u64, bitrate: u32) -> Row {
         dropped: injected.get("dropped").copied().unwrap_or(0),
         sent: injected.get("sent").copied().unwrap_or(0),
         repeats: runner.target_repeats + runner.mode_repeats + runner.table_repeats,
-        same: scores(&clean) == scores(&lossy),
+        same: differs.is_empty(),
+        differs,
     }
+}
+
+/// Which of the scores differ between the clean run `a` and the lossy run `b`, in words
+/// (empty when all are identical): the failed and aborted trials' counts, and the first trial
+/// whose error or fine moves differ, per curve.
+fn what_differs(a: &Report, b: &Report) -> String {
+    let mut out = Vec::new();
+    if a.failed_trials != b.failed_trials {
+        out.push(format!(
+            "failed trials {} clean, {} lossy",
+            a.failed_trials, b.failed_trials
+        ));
+    }
+    if a.aborted_trials != b.aborted_trials {
+        out.push(format!(
+            "aborted trials {} clean, {} lossy",
+            a.aborted_trials, b.aborted_trials
+        ));
+    }
+    // the first trial whose value differs bit for bit, or where one curve ends first
+    let first = |x: &[f32], y: &[f32]| {
+        let same = x
+            .iter()
+            .zip(y)
+            .take_while(|(p, q)| p.to_bits() == q.to_bits())
+            .count();
+        (same < x.len().max(y.len()))
+            .then(|| format!("from trial {same} ({} and {} trials)", x.len(), y.len()))
+    };
+    let moves = |m: &[u8]| m.iter().map(|&v| f32::from(v)).collect::<Vec<f32>>();
+    let curves = [
+        (
+            "stage 1 error",
+            first(&a.stage1_error_px, &b.stage1_error_px),
+        ),
+        (
+            "stage 2 error",
+            first(&a.stage2_error_px, &b.stage2_error_px),
+        ),
+        (
+            "stage 1 fine moves",
+            first(&moves(&a.fine_moves), &moves(&b.fine_moves)),
+        ),
+        (
+            "stage 2 fine moves",
+            first(&moves(&a.fine_moves_stage2), &moves(&b.fine_moves_stage2)),
+        ),
+    ];
+    for (name, d) in curves {
+        if let Some(d) = d {
+            out.push(format!("{name} {d}"));
+        }
+    }
+    out.join(", ")
 }
 
 /// The ratio a lossy line may cost at the bus's bit rate (`--check`).
@@ -209,9 +258,10 @@ fn main() {
             }
             if !r.same {
                 bad.push(format!(
-                    "seed {}, {}: scores differ",
+                    "seed {}, {}: scores differ ({})",
                     r.seed,
-                    line(r.bitrate)
+                    line(r.bitrate),
+                    r.differs
                 ));
             }
             if r.dropped == 0 {
