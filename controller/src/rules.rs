@@ -242,6 +242,74 @@ pub fn learn_and_coarse_output<const N: usize, const D: usize, const M: usize, c
     out
 }
 
+/// Experiment ([`crate::StageConfig::coarse_blend`]): the averaged map's output
+/// `p_bar + A_bar (u - w_bar)` over the first `ranks` ranks, each mean weighted by
+/// `alpha(r)` and normalised as in [`coarse_output`], `A_bar` = [`mean_jacobian`] over the
+/// same ranks. Since `sum alpha_r (p_k + A_bar (u - w_k)) / sum alpha_r` is that value, the
+/// coarse output with each neuron's `A_k` replaced by `(1 - b) A_k + b A_bar` is
+/// `(1 - b) coarse_output + b averaged_map_output`.
+pub fn averaged_map_output<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    alpha: &Falloff<K>,
+    u: &[f32; D],
+    ranks: usize,
+) -> [f32; M] {
+    let n = ranks.clamp(1, K);
+    let a_bar = mean_jacobian(net, ranking, alpha, n - 1);
+    let mut p_sum = [0.0f32; M];
+    let mut w_sum = [0.0f32; D];
+    for (&k, &al) in ranking.indices()[..n].iter().zip(alpha.value.iter()) {
+        let k = k as usize;
+        for m in 0..M {
+            p_sum[m] += al * net.p[k][m].get(TABLE_SCALES.p);
+        }
+        for d in 0..D {
+            w_sum[d] += al * net.w[k][d].get(TABLE_SCALES.w);
+        }
+    }
+    let norm = 1.0 / alpha.sum(n);
+    let diff: [f32; D] = core::array::from_fn(|d| u[d] - w_sum[d] * norm);
+    core::array::from_fn(|m| {
+        let mut acc = p_sum[m] * norm;
+        for d in 0..D {
+            acc += a_bar[m][d] * diff[d];
+        }
+        acc
+    })
+}
+
+/// Experiment ([`crate::StageConfig::coarse_blend`]): the pressure rule (8.12 / 8.27) of
+/// [`update_pressures`] with each neuron's extrapolation `(1 - b) A_k + b A_bar`.
+#[allow(clippy::too_many_arguments)]
+pub fn update_pressures_blended<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    ranking: &Ranking<K>,
+    gamma: &Falloff<K>,
+    coeff: f32,
+    p_ref: &[f32; M],
+    x: &[f32; D],
+    a_bar: &[[f32; D]; M],
+    b: f32,
+) {
+    for (&k, &f) in ranking.indices().iter().zip(gamma.value.iter()) {
+        let g = coeff * f;
+        let k = k as usize;
+        let local = net.local_output(k, x);
+        let diff: [f32; D] = core::array::from_fn(|d| x[d] - net.w[k][d].get(TABLE_SCALES.w));
+        let p = &mut net.p[k];
+        for m in 0..M {
+            let pm = p[m].get(TABLE_SCALES.p);
+            let mut abd = 0.0;
+            for d in 0..D {
+                abd += a_bar[m][d] * diff[d];
+            }
+            let blended = (1.0 - b) * local[m] + b * (pm + abd);
+            p[m] = Table::put(pm + g * (p_ref[m] - blended), TABLE_SCALES.p);
+        }
+    }
+}
+
 /// One neuron of [`learn_and_coarse_output`]: the weight update with rate `g`, the pressure
 /// update (rate `p_coeff * f`) when supervised, and the local map's output at `u` after both.
 #[inline(always)]

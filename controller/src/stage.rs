@@ -355,6 +355,20 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 self.cfg.coarse_ranks as usize,
             )
         };
+        let blend = self.cfg.coarse_blend;
+        let p_bar = if blend != 0.0 {
+            // experiment (StageConfig::coarse_blend): second-order blending of the local maps
+            let avg = rules::averaged_map_output(
+                &self.net,
+                &self.ranking,
+                &self.alpha,
+                target,
+                self.cfg.coarse_ranks as usize,
+            );
+            core::array::from_fn(|m| (1.0 - blend) * p_bar[m] + blend * avg[m])
+        } else {
+            p_bar
+        };
         let p_map = p_bar;
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {
@@ -495,14 +509,33 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 tr.outcome.trace[0] = d;
                 if tr.learn && tr.p_target.is_none() {
                     // substep 6 (8.12 / 8.27): teach each map the pressure that reached v_i
-                    rules::update_pressures(
-                        &mut self.net,
-                        &self.ranking,
-                        &self.neighbour,
-                        self.cfg.p.coeff(t),
-                        &tr.p_bar,
-                        v,
-                    );
+                    let blend = self.cfg.coarse_blend;
+                    if blend != 0.0 {
+                        // experiment (StageConfig::coarse_blend): the rule with the blended
+                        // extrapolation, A_bar over the coarse output's ranks
+                        let ranks = (self.cfg.coarse_ranks as usize).max(1);
+                        let a_bar =
+                            rules::mean_jacobian(&self.net, &self.ranking, &self.alpha, ranks - 1);
+                        rules::update_pressures_blended(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            self.cfg.p.coeff(t),
+                            &tr.p_bar,
+                            v,
+                            &a_bar,
+                            blend,
+                        );
+                    } else {
+                        rules::update_pressures(
+                            &mut self.net,
+                            &self.ranking,
+                            &self.neighbour,
+                            self.cfg.p.coeff(t),
+                            &tr.p_bar,
+                            v,
+                        );
+                    }
                 }
                 let over = d_est > tr.outcome.tolerance;
                 match tr.exact {
@@ -782,7 +815,10 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
 
 /// `|P e|` with `P = A^T (A A^T)^-1 A` the projection onto the row space of `a` (M x D):
 /// `y = A e`, `|P e|^2 = y^T (A A^T)^-1 y`; `None` when `A A^T` is singular.
-fn projected_distance<const D: usize, const M: usize>(a: &[[f32; D]; M], e: &[f32; D]) -> Option<f32> {
+fn projected_distance<const D: usize, const M: usize>(
+    a: &[[f32; D]; M],
+    e: &[f32; D],
+) -> Option<f32> {
     let mut g = [[0.0f32; M]; M];
     let mut y = [0.0f32; M];
     for i in 0..M {

@@ -252,6 +252,11 @@ pub struct StageConfig {
     /// channel's step shrunk by this much (pressure units; a step shorter than it is none):
     /// a play band of the controller's own (`0` = off).
     pub step_deadband: f32,
+    /// Experiment (branch exp-blend): second-order blending of the local maps. The coarse
+    /// output (8.11 / 8.19 / 8.24) and the pressure rule (8.12 / 8.27) extrapolate each
+    /// neuron's pressure with `(1 - b) A_k + b A_bar` instead of `A_k`, `A_bar` the averaged
+    /// Jacobian (8.14) over the coarse output's ranks (`0` = off, the paper's `A_k`).
+    pub coarse_blend: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -486,6 +491,7 @@ impl Config {
             jac_by_pressure_mix: 1.0,
             near_avg: 0.0,
             step_deadband: 0.0,
+            coarse_blend: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -621,6 +627,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     jac_by_pressure_mix: 1.0,
     near_avg: 0.0,
     step_deadband: 0.0,
+    coarse_blend: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
