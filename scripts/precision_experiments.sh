@@ -1,19 +1,19 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-deadband (and its ancestors exp-avg, exp-prank, exp-proj,
-# exp-anchor, exp-replay and exp-trial-estimate; all merged into main's history without
+# on the commit tagged exp-blend (and its ancestors exp-deadband, exp-avg, exp-prank,
+# exp-proj, exp-anchor, exp-replay and exp-trial-estimate; all merged into main's history without
 # their changes), which add them to the controller and their rows to studies/precision.toml.
 # This builds that commit in a temporary worktree, runs its rows on the tuning seeds 1-4 and
 # writes docs/results/precision-experiments.md, then the best five with the 1,000-trial row
 # they change on the reporting seeds 100-109 into
 # docs/results/precision-experiments-heldout.md (both copied into docs/diagnosis.md by
-# scripts/readme_sections.py). About 35 + 10 minutes on 2 cores after the build (estimated:
+# scripts/readme_sections.py). About 38 + 10 minutes on 2 cores after the build (estimated:
 # the whole script took 69 minutes, its first 47 beside the test suite at a higher priority).
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=dbac2efd481ff186b6655afc9a45b461420a6977  # the commit tagged exp-deadband
+rev=39aa6a4902e4a0503397ce6178ad917e9fe9ddd3  # the commit tagged exp-blend
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -29,6 +29,7 @@ rows+=,stop-pca16-tol-0.9,step-pca16-tol-0.9,c1000-stop-pca8-tol-1.0,c1000-stop-
 rows+=,jac-pressure-9,jac-pressure-9-half,jac-pressure-24
 rows+=,avg-1.5,avg-2,avg-3,c1000-avg-2,avg-1,avg-1.5-nosec,c1000-avg-1.5
 rows+=,dead-0.003,dead-0.01,dead-0.03
+rows+=,blend-0.25,blend-0.5,blend-1,c1000-blend-0.5
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
