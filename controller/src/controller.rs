@@ -332,13 +332,17 @@ impl Controller {
         learn: bool,
     ) -> Result<[f32; 5]> {
         let fine = self.fine;
+        let held = self.held;
         let (law, scratch) = self.law1();
+        law.note_held(&held);
         law.begin(v, supervised, learn, fine, scratch)
     }
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
         let fine = self.fine;
+        let held: [f32; 3] = core::array::from_fn(|i| self.held[i]);
         let (law, scratch) = self.law2();
+        law.note_held(&held);
         let p = law.begin(c, None, learn, fine, scratch)?;
         self.running = Running::Stage2;
         Ok(self.move2(p))

@@ -30,6 +30,9 @@ pub trait StageLaw<const D: usize, const M: usize> {
     fn observe(&mut self, u: &[f32; D], scratch: &mut RankScratch) -> Result<StageStep<M>>;
     /// Abandons the running trial.
     fn abort(&mut self);
+    /// Experiment (`StageConfig::loop_offset`): the pressures the drives hold before the
+    /// stage's next trial (the controller's last command on each of the stage's channels).
+    fn note_held(&mut self, _held: &[f32; M]) {}
 }
 
 /// A law this build leaves out: every trial is refused ([`Error::UnsupportedLaw`]).

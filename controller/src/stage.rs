@@ -38,6 +38,9 @@ struct Trial<const D: usize, const M: usize> {
     v_prev: [f32; D],
     /// The last pressure applied.
     p_last: [f32; M],
+    /// Experiment (`StageConfig::loop_offset`): each channel's side of the loop the coarse
+    /// move approached from (+1 rising, -1 falling, 0 unchanged).
+    side: [f32; M],
     /// Experiment (`StageConfig::est_noise`): the filtered position, its per-coordinate
     /// variance, the last step's aim.
     est: [f32; D],
@@ -76,6 +79,10 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     anchor_p: [[f32; M]; N],
     anchor_v: [[f32; D]; N],
     anchor_ok: [bool; N],
+    /// Experiment (`StageConfig::loop_offset_rate`): each neuron's learned offset per
+    /// channel, and the pressures held before the next trial (`StageLaw::note_held`).
+    loop_o: [[f32; M]; N],
+    held: [f32; M],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -102,6 +109,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_prev: [0.0; M],
                 v_prev: [0.0; D],
                 p_last: [0.0; M],
+                side: [0.0; M],
                 est: [0.0; D],
                 est_var: 0.0,
                 aim: [0.0; D],
@@ -114,6 +122,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             anchor_p: [[0.0; M]; N],
             anchor_v: [[0.0; D]; N],
             anchor_ok: [false; N],
+            loop_o: [[0.0; M]; N],
+            held: [0.0; M],
         }
     }
 
@@ -121,6 +131,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     pub fn init_random(&mut self, rng: &mut impl rand_core::RngCore) {
         self.net.init_random(rng, &self.cfg.init);
         self.anchor_ok = [false; N];
+        self.loop_o = [[0.0; M]; N];
         let active = self.cfg.active_neurons as usize;
         if active > 0 {
             // experiment: the neurons beyond `active` parked far outside any image
@@ -207,6 +218,28 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
     /// True while a trial is running.
     pub fn busy(&self) -> bool {
         self.phase != Phase::Idle
+    }
+
+    /// Experiment (`StageConfig::loop_offset_rate`): the learned offsets averaged over the
+    /// first `ranks` ranks of the current ranking, weighted as the coarse output.
+    fn loop_offset_at(&self, ranks: usize) -> [f32; M] {
+        let n = ranks.clamp(1, K);
+        let mut out = [0.0; M];
+        for (&k, &al) in self.ranking.indices()[..n]
+            .iter()
+            .zip(self.alpha.value.iter())
+        {
+            for m in 0..M {
+                out[m] += al * self.loop_o[k as usize][m];
+            }
+        }
+        let norm = 1.0 / self.alpha.sum(n);
+        out.map(|o| o * norm)
+    }
+
+    /// Experiment (`StageConfig::loop_offset`): see [`StageLaw::note_held`].
+    pub fn note_held(&mut self, held: &[f32; M]) {
+        self.held = *held;
     }
 
     /// The last pressure commanded.
@@ -369,6 +402,30 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         } else {
             p_bar
         };
+        let (lo, lr) = (self.cfg.loop_offset, self.cfg.loop_offset_rate);
+        let mut side = [0.0f32; M];
+        let p_bar = if (lo != 0.0 || lr != 0.0) && p_target.is_none() {
+            // experiment (StageConfig::loop_offset): the coarse command moved towards the
+            // side of the loop it approaches from
+            let learned = if lr != 0.0 {
+                self.loop_offset_at(self.cfg.coarse_ranks as usize)
+            } else {
+                [0.0; M]
+            };
+            core::array::from_fn(|m| {
+                let s = if p_bar[m] > self.held[m] {
+                    1.0
+                } else if p_bar[m] < self.held[m] {
+                    -1.0
+                } else {
+                    0.0
+                };
+                side[m] = s;
+                p_bar[m] + s * (lo + learned[m])
+            })
+        } else {
+            p_bar
+        };
         let p_map = p_bar;
         let p_bar = rules::clamp(&p_bar, self.cfg.pressure_limit);
         self.trial = Trial {
@@ -381,6 +438,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             p_prev: p_bar,
             v_prev: [0.0; D],
             p_last: p_bar,
+            side,
             est: [0.0; D],
             est_var: 0.0,
             aim: [0.0; D],
@@ -510,7 +568,38 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 if tr.learn && tr.p_target.is_none() {
                     // substep 6 (8.12 / 8.27): teach each map the pressure that reached v_i
                     let blend = self.cfg.coarse_blend;
-                    if blend != 0.0 {
+                    let (lo, lr) = (self.cfg.loop_offset, self.cfg.loop_offset_rate);
+                    if lo != 0.0 || lr != 0.0 {
+                        // experiment (StageConfig::loop_offset): the rule taught the command
+                        // less the offset; the learned offsets beside it
+                        let coeff = self.cfg.p.coeff(t);
+                        let side = tr.side;
+                        let p_applied = tr.p_bar;
+                        for (&k, &f) in self
+                            .ranking
+                            .indices()
+                            .iter()
+                            .zip(self.neighbour.value.iter())
+                        {
+                            let k = k as usize;
+                            let g = coeff * f;
+                            let local = self.net.local_output(k, v);
+                            for m in 0..M {
+                                let o = lo + self.loop_o[k][m];
+                                let e = p_applied[m] - local[m] - side[m] * o;
+                                let pm = crate::entry::Entry::get(
+                                    self.net.p[k][m],
+                                    crate::entry::TABLE_SCALES.p,
+                                );
+                                self.net.p[k][m] =
+                                    <crate::entry::Table as crate::entry::Entry>::put(
+                                        pm + g * e,
+                                        crate::entry::TABLE_SCALES.p,
+                                    );
+                                self.loop_o[k][m] += lr * g * side[m] * e;
+                            }
+                        }
+                    } else if blend != 0.0 {
                         // experiment (StageConfig::coarse_blend): the rule with the blended
                         // extrapolation, A_bar over the coarse output's ranks
                         let ranks = (self.cfg.coarse_ranks as usize).max(1);
@@ -950,6 +1039,9 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> StageLaw<D,
     }
     fn abort(&mut self) {
         Stage::abort(self)
+    }
+    fn note_held(&mut self, held: &[f32; M]) {
+        Stage::note_held(self, held)
     }
 }
 

@@ -257,6 +257,16 @@ pub struct StageConfig {
     /// neuron's pressure with `(1 - b) A_k + b A_bar` instead of `A_k`, `A_bar` the averaged
     /// Jacobian (8.14) over the coarse output's ranks (`0` = off, the paper's `A_k`).
     pub coarse_blend: f32,
+    /// Experiment (branch exp-loopside): a coarse move that knows the loop's side. Each
+    /// channel's coarse command moves by this much (pressure units) in the direction it
+    /// moves from the channel's last command (a rising joint lags its loop's centre line,
+    /// a falling one leads it), and the pressure rule (8.12) is taught the command less
+    /// that offset (`0` = off).
+    pub loop_offset: f32,
+    /// Experiment (branch exp-loopside): the same offset learned per neuron: each neuron
+    /// holds one per channel, averaged over the coarse output's ranks like the pressures,
+    /// taught beside the pressure rule (8.12) at this multiple of its rate (`0` = off).
+    pub loop_offset_rate: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -492,6 +502,8 @@ impl Config {
             near_avg: 0.0,
             step_deadband: 0.0,
             coarse_blend: 0.0,
+            loop_offset: 0.0,
+            loop_offset_rate: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -628,6 +640,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     near_avg: 0.0,
     step_deadband: 0.0,
     coarse_blend: 0.0,
+    loop_offset: 0.0,
+    loop_offset_rate: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
