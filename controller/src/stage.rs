@@ -83,6 +83,10 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     /// channel, and the pressures held before the next trial (`StageLaw::note_held`).
     loop_o: [[f32; M]; N],
     held: [f32; M],
+    /// Experiment (`StageConfig::jac_rls_forget`): each neuron's inverse covariance of the
+    /// Jacobian rule's regressors (`dv`), and whether it was initialised.
+    rls_p: [[[f32; D]; D]; N],
+    rls_ok: [bool; N],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -124,6 +128,8 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
             anchor_ok: [false; N],
             loop_o: [[0.0; M]; N],
             held: [0.0; M],
+            rls_p: [[[0.0; D]; D]; N],
+            rls_ok: [false; N],
         }
     }
 
@@ -132,6 +138,7 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         self.net.init_random(rng, &self.cfg.init);
         self.anchor_ok = [false; N];
         self.loop_o = [[0.0; M]; N];
+        self.rls_ok = [false; N];
         let active = self.cfg.active_neurons as usize;
         if active > 0 {
             // experiment: the neurons beyond `active` parked far outside any image
@@ -667,30 +674,53 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                         None => (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev)),
                     };
                     let coeff = self.cfg.j.coeff(t);
-                    let updated = if finish.is_none() {
-                        rules::update_jacobians_and_mean(
-                            &mut self.net,
-                            &self.ranking,
-                            &self.neighbour,
-                            coeff,
-                            &dp,
-                            &dv,
-                            self.cfg.dv_rule(),
-                            &self.alpha,
-                            self.cfg.fine_ranks as usize,
-                        )
-                        .map(|a| a_bar = Some(a))
-                    } else {
-                        rules::update_jacobians(
-                            &mut self.net,
-                            &self.ranking,
-                            &self.neighbour,
-                            coeff,
-                            &dp,
-                            &dv,
-                            self.cfg.dv_rule(),
-                        )
-                    };
+                    let dv_len = libm::sqrtf(dv.iter().map(|x| x * x).sum::<f32>());
+                    let updated =
+                        if self.cfg.jac_rls_forget > 0.0 && dv_len >= self.cfg.jac_rls_min_dv {
+                            // experiment (StageConfig::jac_rls_forget): recursive least squares
+                            let r = rls_update(
+                                &mut self.net,
+                                &mut self.rls_p,
+                                &mut self.rls_ok,
+                                &self.ranking,
+                                &self.neighbour,
+                                &self.cfg,
+                                &dp,
+                                &dv,
+                            );
+                            if r.is_ok() && finish.is_none() {
+                                a_bar = Some(rules::mean_jacobian(
+                                    &self.net,
+                                    &self.ranking,
+                                    &self.alpha,
+                                    self.cfg.fine_ranks as usize,
+                                ));
+                            }
+                            r
+                        } else if finish.is_none() {
+                            rules::update_jacobians_and_mean(
+                                &mut self.net,
+                                &self.ranking,
+                                &self.neighbour,
+                                coeff,
+                                &dp,
+                                &dv,
+                                self.cfg.dv_rule(),
+                                &self.alpha,
+                                self.cfg.fine_ranks as usize,
+                            )
+                            .map(|a| a_bar = Some(a))
+                        } else {
+                            rules::update_jacobians(
+                                &mut self.net,
+                                &self.ranking,
+                                &self.neighbour,
+                                coeff,
+                                &dp,
+                                &dv,
+                                self.cfg.dv_rule(),
+                            )
+                        };
                     if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
@@ -1014,6 +1044,78 @@ fn pca_project<const D: usize, const M: usize>(ws: &[[f32; D]], e: &[f32; D]) ->
         }
     }
     out
+}
+
+/// Experiment (`StageConfig::jac_rls_forget`): the Jacobian rule (8.15 / 8.21) as
+/// weighted recursive least squares for each ranked neuron. A sample of neighbourhood
+/// weight `g` (the rule's falloff at the neuron's rank) forgets with
+/// `l = 1 - (1 - forget) g` and enters with gain `K = P dv / (l / g + dv' P dv)`:
+/// `A_k += (dp - A_k dv) K'`, `P = (P - K (P dv)') / l`. Ranks of weight below 1e-4 are
+/// left alone. Refused as (8.15) refuses it when `dv` is shorter than the rule's minimum.
+#[allow(clippy::too_many_arguments)]
+fn rls_update<const N: usize, const D: usize, const M: usize, const K: usize>(
+    net: &mut Trn<N, D, M>,
+    rls_p: &mut [[[f32; D]; D]; N],
+    rls_ok: &mut [bool; N],
+    ranking: &Ranking<K>,
+    neighbour: &Falloff<K>,
+    cfg: &StageConfig,
+    dp: &[f32; M],
+    dv: &[f32; D],
+) -> Result<()> {
+    let n2: f32 = dv.iter().map(|x| x * x).sum();
+    if !(n2.is_finite() && n2 >= cfg.min_dv * cfg.min_dv) || n2 == 0.0 {
+        return Err(Error::ZeroLengthDv);
+    }
+    let forget = cfg.jac_rls_forget;
+    let init = cfg.jac_rls_init;
+    for (&k, &g) in ranking.indices().iter().zip(neighbour.value.iter()) {
+        if g < 1e-4 {
+            continue;
+        }
+        let k = k as usize;
+        if !rls_ok[k] {
+            rls_p[k] =
+                core::array::from_fn(|i| core::array::from_fn(|j| if i == j { init } else { 0.0 }));
+            rls_ok[k] = true;
+        }
+        let l = 1.0 - (1.0 - forget) * g;
+        let p = &mut rls_p[k];
+        let pdv: [f32; D] = core::array::from_fn(|i| {
+            let mut acc = 0.0;
+            for j in 0..D {
+                acc += p[i][j] * dv[j];
+            }
+            acc
+        });
+        let q: f32 = (0..D).map(|i| dv[i] * pdv[i]).sum();
+        let denom = l / g + q;
+        if !(denom > 0.0) {
+            continue;
+        }
+        let gain: [f32; D] = pdv.map(|x| x / denom);
+        let a = &mut net.a[k];
+        for m in 0..M {
+            let mut pred = 0.0;
+            for d in 0..D {
+                pred += crate::entry::Entry::get(a[m][d], crate::entry::TABLE_SCALES.a) * dv[d];
+            }
+            let e = dp[m] - pred;
+            for d in 0..D {
+                let x = crate::entry::Entry::get(a[m][d], crate::entry::TABLE_SCALES.a);
+                a[m][d] = <crate::entry::Table as crate::entry::Entry>::put(
+                    x + e * gain[d],
+                    crate::entry::TABLE_SCALES.a,
+                );
+            }
+        }
+        for i in 0..D {
+            for j in 0..D {
+                p[i][j] = (p[i][j] - gain[i] * pdv[j]) / l;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The TRN is a stage law: it learns when asked (supervised priming, unsupervised

@@ -267,6 +267,17 @@ pub struct StageConfig {
     /// holds one per channel, averaged over the coarse output's ranks like the pressures,
     /// taught beside the pressure rule (8.12) at this multiple of its rate (`0` = off).
     pub loop_offset_rate: f32,
+    /// Experiment (branch exp-rls): the Jacobian rule (8.15 / 8.21) as recursive least
+    /// squares per neuron, with this forgetting factor for a sample of full neighbourhood
+    /// weight (`0` = off, the paper's rank-one rule at its rates).
+    pub jac_rls_forget: f32,
+    /// Experiment (branch exp-rls): each neuron's initial inverse covariance, this times the
+    /// identity (1 / px^2: how strongly its first samples override the random start).
+    pub jac_rls_init: f32,
+    /// Experiment (branch exp-rls): moves with `||dv||` below this (pixels) are left to the
+    /// rank-one rule (8.15) at its rates, whose regularisation for the noise in `dv` suits
+    /// them (`0` = every move by recursive least squares).
+    pub jac_rls_min_dv: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -504,6 +515,9 @@ impl Config {
             coarse_blend: 0.0,
             loop_offset: 0.0,
             loop_offset_rate: 0.0,
+            jac_rls_forget: 0.0,
+            jac_rls_init: 0.0,
+            jac_rls_min_dv: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -642,6 +656,9 @@ const ZERO_STAGE: StageConfig = StageConfig {
     coarse_blend: 0.0,
     loop_offset: 0.0,
     loop_offset_rate: 0.0,
+    jac_rls_forget: 0.0,
+    jac_rls_init: 0.0,
+    jac_rls_min_dv: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
