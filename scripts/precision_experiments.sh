@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-blend (and its ancestors exp-deadband, exp-avg, exp-prank,
-# exp-proj, exp-anchor, exp-replay and exp-trial-estimate; all merged into main's history without
-# their changes), which add them to the controller and their rows to studies/precision.toml.
-# This builds that commit in a temporary worktree, runs its rows on the tuning seeds 1-4 and
-# writes docs/results/precision-experiments.md, then the best five with the 1,000-trial row
-# they change on the reporting seeds 100-109 into
+# on the commit tagged exp-rls (and its ancestors exp-loopside, exp-blend, exp-deadband,
+# exp-avg, exp-prank, exp-proj, exp-anchor, exp-replay and exp-trial-estimate; all merged
+# into main's history without their changes), which add them to the controller and their
+# rows to studies/precision.toml. This builds that commit in a temporary worktree, runs its
+# rows on the tuning seeds 1-4 and writes docs/results/precision-experiments.md, then the
+# best five with the 1,000-trial row they change on the reporting seeds 100-109 into
 # docs/results/precision-experiments-heldout.md (both copied into docs/diagnosis.md by
-# scripts/readme_sections.py). About 38 + 10 minutes on 2 cores after the build (estimated:
-# the whole script took 69 minutes, its first 47 beside the test suite at a higher priority).
+# scripts/readme_sections.py). About 45 + 10 minutes on 2 cores after the build (estimated
+# from a whole run of 69 minutes with fewer rows, its first 47 beside the test suite at a
+# higher priority, and the newest rows run alone).
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=39aa6a4902e4a0503397ce6178ad917e9fe9ddd3  # the commit tagged exp-blend
+rev=a8b30b70d56d52e44cf7f3debc42b0c73c173272  # the commit tagged exp-rls
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -30,6 +31,9 @@ rows+=,jac-pressure-9,jac-pressure-9-half,jac-pressure-24
 rows+=,avg-1.5,avg-2,avg-3,c1000-avg-2,avg-1,avg-1.5-nosec,c1000-avg-1.5
 rows+=,dead-0.003,dead-0.01,dead-0.03
 rows+=,blend-0.25,blend-0.5,blend-1,c1000-blend-0.5
+rows+=,side-0.02,side-0.05,side-learn-1,side-learn-3,loop-25-side-0.1,loop-25-side-learn-1
+rows+=,loop-25-side-learn-3,rls-0.99,rls-0.99-init-0.1,rls-0.9-init-0.1,rls-0.8-init-0.1
+rows+=,rls-0.8-min-5
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
