@@ -10,6 +10,18 @@ use crate::rank::RankScratch;
 use crate::stage::Stage;
 use crate::trial::{FineMoves, StageOutcome, StageStep, ZERO_OUTCOME};
 
+/// Experiment (`StageConfig::loop_from_drives`): the pressures the drives hold at the start
+/// of the next trial (`f32` bits), published by the harness before it sends the target. One
+/// set per process: runs that read it must not run beside each other (`--jobs 1`).
+pub static EXP_START: [core::sync::atomic::AtomicU32; 5] =
+    [const { core::sync::atomic::AtomicU32::new(0) }; 5];
+
+fn exp_start() -> [f32; 5] {
+    core::array::from_fn(|i| {
+        f32::from_bits(EXP_START[i].load(core::sync::atomic::Ordering::Relaxed))
+    })
+}
+
 /// Ranks that carry weight in the averages and updates (see [`crate::rules`]).
 pub const RANKS: usize = 128;
 
@@ -332,7 +344,11 @@ impl Controller {
         learn: bool,
     ) -> Result<[f32; 5]> {
         let fine = self.fine;
-        let held = self.held;
+        let held = if self.cfg.stage1.loop_from_drives != 0 {
+            exp_start()
+        } else {
+            self.held
+        };
         let (law, scratch) = self.law1();
         law.note_held(&held);
         law.begin(v, supervised, learn, fine, scratch)
@@ -340,7 +356,12 @@ impl Controller {
 
     fn begin2(&mut self, c: &[f32; 4], learn: bool) -> Result<Command> {
         let fine = self.fine;
-        let held: [f32; 3] = core::array::from_fn(|i| self.held[i]);
+        let from = if self.cfg.stage2.loop_from_drives != 0 {
+            exp_start()
+        } else {
+            self.held
+        };
+        let held: [f32; 3] = core::array::from_fn(|i| from[i]);
         let (law, scratch) = self.law2();
         law.note_held(&held);
         let p = law.begin(c, None, learn, fine, scratch)?;

@@ -60,7 +60,8 @@ pub mod trial;
 pub use config::{Config, Law, StageConfig};
 pub use control::{Control, Tables, WithStore};
 pub use controller::{
-    Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, JOINTS, RANKS,
+    Command, Controller, Observation, ObserveKind, Outcome, Stage1, Stage2, Task, EXP_START,
+    JOINTS, RANKS,
 };
 pub use error::{Error, Result};
 pub use net::{Stage1Net, Stage2Net, Trn};

@@ -278,6 +278,11 @@ pub struct StageConfig {
     /// rank-one rule (8.15) at its rates, whose regularisation for the noise in `dv` suits
     /// them (`0` = every move by recursive least squares).
     pub jac_rls_min_dv: f32,
+    /// Experiment (branch exp-loopstate): the loop's side of [`StageConfig::loop_offset`]
+    /// from the pressures the drives hold at the trial's start, as the harness publishes
+    /// them ([`crate::EXP_START`]; what a node that overhears every drive's
+    /// `ServoStatus` would know), instead of the controller's own last command (`0` = off).
+    pub loop_from_drives: u8,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -518,6 +523,7 @@ impl Config {
             jac_rls_forget: 0.0,
             jac_rls_init: 0.0,
             jac_rls_min_dv: 0.0,
+            loop_from_drives: 0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -659,6 +665,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     jac_rls_forget: 0.0,
     jac_rls_init: 0.0,
     jac_rls_min_dv: 0.0,
+    loop_from_drives: 0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,

@@ -309,6 +309,7 @@ where
                 let joints = if stage2 { 3 } else { 5 };
                 plant.move_to_random_joints(&mut self.rng, joints);
                 plant.settle();
+                publish_start(&plant);
                 Ok(Some(target))
             }
             Source::HeldOut(h) => {
@@ -327,6 +328,7 @@ where
                 plant.set_cylinder(target.cylinder);
                 plant.command(&start);
                 plant.settle();
+                publish_start(&plant);
                 Ok(Some(target))
             }
         }
@@ -528,5 +530,16 @@ fn start_messages(trial: u32, spec: &TrialSpec, target: &Target) -> Vec<(NodeId,
                 (ctrl, t2.into()),
             ]
         }
+    }
+}
+
+/// Experiment (`StageConfig::loop_from_drives`): the pressures the drives hold now, for a
+/// controller in this process that reads them ([`trn_controller::EXP_START`]).
+fn publish_start(plant: &trn_plant::Plant) {
+    for (slot, j) in trn_controller::EXP_START.iter().zip(plant.joints()) {
+        slot.store(
+            (j.commanded() as f32).to_bits(),
+            std::sync::atomic::Ordering::Relaxed,
+        );
     }
 }
