@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
 # Experiments for fewer fine moves whose options are not in the controller on main: they live
-# on the commit tagged exp-rls (and its ancestors exp-loopside, exp-blend, exp-deadband,
-# exp-avg, exp-prank, exp-proj, exp-anchor, exp-replay and exp-trial-estimate; all merged
-# into main's history without their changes), which add them to the controller and their
-# rows to studies/precision.toml. This builds that commit in a temporary worktree, runs its
-# rows on the tuning seeds 1-4 and writes docs/results/precision-experiments.md, then the
+# on the commit tagged exp-loopstate (and its ancestors exp-rls, exp-loopside, exp-blend,
+# exp-deadband, exp-avg, exp-prank, exp-proj, exp-anchor, exp-replay and
+# exp-trial-estimate; all merged into main's history without their changes), which add them
+# to the controller and their rows to studies/precision.toml. This builds that commit in a
+# temporary worktree, runs its rows on the tuning seeds 1-4 (the rows whose controller
+# reads the drives' pressures from the harness one run at a time, `--jobs 1`: that side
+# channel is one per process) and writes docs/results/precision-experiments.md, then the
 # best five with the 1,000-trial row they change on the reporting seeds 100-109 into
 # docs/results/precision-experiments-heldout.md (both copied into docs/diagnosis.md by
-# scripts/readme_sections.py). About 45 + 10 minutes on 2 cores after the build (estimated
+# scripts/readme_sections.py). About 50 + 10 minutes on 2 cores after the build (estimated
 # from a whole run of 69 minutes with fewer rows, its first 47 beside the test suite at a
 # higher priority, and the newest rows run alone).
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-rev=a8b30b70d56d52e44cf7f3debc42b0c73c173272  # the commit tagged exp-rls
+rev=80b2c40909fff9df8cdca823deef435ec301f260  # the commit tagged exp-loopstate
 tmp=$(mktemp -d)
 cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -34,11 +36,16 @@ rows+=,blend-0.25,blend-0.5,blend-1,c1000-blend-0.5
 rows+=,side-0.02,side-0.05,side-learn-1,side-learn-3,loop-25-side-0.1,loop-25-side-learn-1
 rows+=,loop-25-side-learn-3,rls-0.99,rls-0.99-init-0.1,rls-0.9-init-0.1,rls-0.8-init-0.1
 rows+=,rls-0.8-min-5
+# read the drives' pressures through the harness's side channel: one run at a time
+drives=drives-side-0.02,drives-side-0.05,drives-side-learn-1,loop-25-drives-side-0.1
+drives+=,loop-25-drives-side-learn-1
 (
     cd "$tmp/src"
     CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
     "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/runs" \
         --quiet --configs "$rows" "$@" > "$tmp/table.md"
+    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/drives" \
+        --quiet --configs "$drives" --jobs 1 | tail -n +3 >> "$tmp/table.md"
     "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/heldout" \
         --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2,c1000-replay-1,c1000-stop-pca8-tol-0.9 \
         --first-seed 100 --seeds 10 "$@" > "$tmp/heldout.md"
