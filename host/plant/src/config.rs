@@ -166,6 +166,16 @@ pub struct RealismConfig {
     pub dropout_rate: f64,
     /// The hand and the cylinder hide lights too, not only the upper arm and the forearm.
     pub occlude_hand_and_cylinder: bool,
+    /// Experiment: unidirectional approach (CNC's G60). A drive whose new command is below
+    /// its last goes first to `command - approach_depth` (clamped to -1) for `approach_s`,
+    /// then to the command, so every setpoint is reached from below; 0 = off. The settle
+    /// that follows is lengthened by the pre-move's time.
+    pub approach_depth: f64,
+    /// Experiment: how long the drive holds the pre-move's pressure (s).
+    pub approach_s: f64,
+    /// Experiment: only a descent larger than this (normalised pressure) is approached
+    /// from below; smaller ones go straight (0 = every descent).
+    pub approach_min: f64,
 }
 
 /// How the camera processor reads the lights.
@@ -375,6 +385,9 @@ impl SimConfig {
             outlier_rate: 0.002,
             dropout_rate: 0.005,
             occlude_hand_and_cylinder: true,
+            approach_depth: 0.0,
+            approach_s: 0.0,
+            approach_min: 0.0,
         };
         for cam in &mut c.cameras {
             cam.distortion = [-0.08, 0.01];

@@ -84,6 +84,11 @@ pub struct Joint {
     creep: f64,
     /// The equilibrium of the previous step (for the creep).
     eq_last: f64,
+    /// Experiment (unidirectional approach): the pre-move's command and its steps left.
+    #[serde(default)]
+    pre_cmd: f64,
+    #[serde(default)]
+    pre_steps: u32,
 }
 
 /// A joint's share of the real arm's effects.
@@ -144,6 +149,8 @@ impl Joint {
             effects: JointEffects::NONE,
             creep: 0.0,
             eq_last: 0.0,
+            pre_cmd: 0.0,
+            pre_steps: 0,
         };
         j.angle = j.equilibrium();
         j.eq_last = j.angle;
@@ -245,7 +252,13 @@ impl Joint {
     /// (semi-implicit Euler).
     pub fn step(&mut self, dt: f64) {
         let k = dt / self.cfg.pressure_tau_s;
-        self.pressure += (self.command - self.pressure) * k.min(1.0);
+        let command = if self.pre_steps > 0 {
+            self.pre_steps -= 1;
+            self.pre_cmd
+        } else {
+            self.command
+        };
+        self.pressure += (command - self.pressure) * k.min(1.0);
         self.update_plays();
         let mut target = self.equilibrium();
         let fraction = self.effects.creep_fraction;
@@ -264,6 +277,18 @@ impl Joint {
         let d = self.velocity * dt;
         self.angle += d;
         self.travel += d.abs();
+    }
+
+    /// Experiment (unidirectional approach): hold `pre` for the next `steps` physics steps,
+    /// then the command.
+    pub fn approach_from(&mut self, pre: f64, steps: u32) {
+        self.pre_cmd = pre;
+        self.pre_steps = steps;
+    }
+
+    /// Physics steps the pre-move still holds.
+    pub fn pre_steps(&self) -> u32 {
+        self.pre_steps
     }
 
     /// Sets the tubes' pressure at once and lets the joint settle fully (tests, pictures).

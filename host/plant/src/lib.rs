@@ -158,8 +158,19 @@ impl Plant {
     /// moves as the plant does on average).
     fn command_one(&mut self, i: usize, raw: u16) -> Option<(u16, bool)> {
         let sigma = self.cfg.realism.process_noise_deg.to_radians();
+        let (depth, pre_s, min, dt) = (
+            self.cfg.realism.approach_depth,
+            self.cfg.realism.approach_s,
+            self.cfg.realism.approach_min,
+            self.cfg.dt_s,
+        );
         let j = self.joints.get_mut(i)?;
-        let new = joint::raw_of(j.commanded()) != raw;
+        let last = joint::raw_of(j.commanded());
+        let new = last != raw;
+        if depth > 0.0 && raw < last && j.commanded() - joint::pressure_of(raw) > min {
+            let pre = (joint::pressure_of(raw) - depth).max(-j.config().servo_limit);
+            j.approach_from(pre, (pre_s / dt).round() as u32);
+        }
         let out = j.command_raw(raw);
         if new {
             j.effects.process_offset = if sigma > 0.0 {
@@ -269,7 +280,8 @@ impl Plant {
 
     /// Advances by the configured settle time (a camera reading follows).
     pub fn settle(&mut self) {
-        self.advance(self.cfg.settle_s);
+        let pre = self.joints.iter().map(|j| j.pre_steps()).max().unwrap_or(0);
+        self.advance(self.cfg.settle_s + pre as f64 * self.cfg.dt_s);
     }
 
     /// Joint angles now (radians).
