@@ -176,6 +176,10 @@ pub struct RealismConfig {
     /// Experiment: only a descent larger than this (normalised pressure) is approached
     /// from below; smaller ones go straight (0 = every descent).
     pub approach_min: f64,
+    /// Experiment: the pre-move follows half-cosines down to its depth and up to the
+    /// command over `approach_s` (instead of a step down held, then a step up), so that it
+    /// excites the joint's oscillation less.
+    pub approach_smooth: bool,
 }
 
 /// How the camera processor reads the lights.
@@ -388,6 +392,7 @@ impl SimConfig {
             approach_depth: 0.0,
             approach_s: 0.0,
             approach_min: 0.0,
+            approach_smooth: false,
         };
         for cam in &mut c.cameras {
             cam.distortion = [-0.08, 0.01];

@@ -89,6 +89,14 @@ pub struct Joint {
     pre_cmd: f64,
     #[serde(default)]
     pre_steps: u32,
+    /// Experiment: a smooth pre-move (down and up along half-cosines) from `pre_from` over
+    /// `pre_total` steps instead of holding `pre_cmd`.
+    #[serde(default)]
+    pre_smooth: bool,
+    #[serde(default)]
+    pre_from: f64,
+    #[serde(default)]
+    pre_total: u32,
 }
 
 /// A joint's share of the real arm's effects.
@@ -151,6 +159,9 @@ impl Joint {
             eq_last: 0.0,
             pre_cmd: 0.0,
             pre_steps: 0,
+            pre_smooth: false,
+            pre_from: 0.0,
+            pre_total: 0,
         };
         j.angle = j.equilibrium();
         j.eq_last = j.angle;
@@ -252,7 +263,18 @@ impl Joint {
     /// (semi-implicit Euler).
     pub fn step(&mut self, dt: f64) {
         let k = dt / self.cfg.pressure_tau_s;
-        let command = if self.pre_steps > 0 {
+        let command = if self.pre_steps > 0 && self.pre_smooth {
+            let s = (self.pre_total - self.pre_steps) as f64 / self.pre_total as f64;
+            self.pre_steps -= 1;
+            let bump = |a: f64, b: f64, s: f64| {
+                a + (b - a) * 0.5 * (1.0 - (2.0 * std::f64::consts::PI * s).cos())
+            };
+            if s < 0.5 {
+                bump(self.pre_from, self.pre_cmd, s)
+            } else {
+                bump(self.pre_cmd, self.command, s - 0.5)
+            }
+        } else if self.pre_steps > 0 {
             self.pre_steps -= 1;
             self.pre_cmd
         } else {
@@ -281,9 +303,12 @@ impl Joint {
 
     /// Experiment (unidirectional approach): hold `pre` for the next `steps` physics steps,
     /// then the command.
-    pub fn approach_from(&mut self, pre: f64, steps: u32) {
+    pub fn approach_from(&mut self, pre: f64, steps: u32, smooth: bool) {
         self.pre_cmd = pre;
         self.pre_steps = steps;
+        self.pre_smooth = smooth;
+        self.pre_from = self.command;
+        self.pre_total = steps;
     }
 
     /// Physics steps the pre-move still holds.

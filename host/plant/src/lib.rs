@@ -158,6 +158,7 @@ impl Plant {
     /// moves as the plant does on average).
     fn command_one(&mut self, i: usize, raw: u16) -> Option<(u16, bool)> {
         let sigma = self.cfg.realism.process_noise_deg.to_radians();
+        let smooth = self.cfg.realism.approach_smooth;
         let (depth, pre_s, min, dt) = (
             self.cfg.realism.approach_depth,
             self.cfg.realism.approach_s,
@@ -169,7 +170,7 @@ impl Plant {
         let new = last != raw;
         if depth > 0.0 && raw < last && j.commanded() - joint::pressure_of(raw) > min {
             let pre = (joint::pressure_of(raw) - depth).max(-j.config().servo_limit);
-            j.approach_from(pre, (pre_s / dt).round() as u32);
+            j.approach_from(pre, (pre_s / dt).round() as u32, smooth);
         }
         let out = j.command_raw(raw);
         if new {
