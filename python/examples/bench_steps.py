@@ -105,10 +105,16 @@ def main():
     ref = {mode.split()[0]: r for env, mode, r, _, _ in rows if env == "Reacher-v5"}
     singles = {env: r for env, mode, r, _, _ in rows if mode == "single"}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    try:
+        import mujoco
+        engine = f"mujoco {mujoco.__version__}, "
+    except ImportError:
+        engine = ""
     lines = [
         f"{os.cpu_count()} cores, load average {load:.1f} at the end, {s:g} s a measurement,"
         f" {a.rounds} rounds of every row taking turns (the median; lowest and highest round),"
-        f" {n} environments a vector; random actions, resets included.",
+        f" {n} environments a vector; random actions, resets included;"
+        f" {engine}gymnasium {gym.__version__}, numpy {np.__version__}.",
         "",
         "| environment | mode | steps/s | rounds | x its single | x Reacher-v5 (same mode) |",
         "|---|---|---:|---:|---:|---:|",

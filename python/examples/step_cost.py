@@ -6,6 +6,7 @@
 ``Arm.step`` STEPS times (random pressures, seeded) and ``Arm.reset`` RESETS times on the
 realistic plant (``DT_S``: the ``dt_s`` option); the difference of two runs' "Collected"
 counts over the difference of their STEPS (or RESETS) is the cost of one.
+``bash scripts/step_cost.sh`` does exactly that and writes docs/python/step-cost.md.
 """
 
 import sys

@@ -101,6 +101,26 @@ pub struct JointEffects {
     pub creep_tau_s: f64,
 }
 
+/// The constants of a joint's physics step of one length ([`Joint::step_constants`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepConstants {
+    /// The drive's pressure lag per step: `dt / pressure_tau_s`, at most 1.
+    lag: f64,
+    /// Each play operator's lag on the way up and on the way down.
+    ups: [f64; PLAYS],
+    downs: [f64; PLAYS],
+    /// The creep's decay over one step (0 without creep).
+    creep_decay: f64,
+    /// `wn^2` and `2 zeta wn` of the joint's dynamics.
+    stiffness: f64,
+    damping: f64,
+    /// The middle of the joint's range and half its span (radians).
+    mid: f64,
+    half: f64,
+    /// The step (s).
+    dt: f64,
+}
+
 impl JointEffects {
     /// No effect.
     pub const NONE: JointEffects = JointEffects {
@@ -190,7 +210,22 @@ impl Joint {
     }
 
     fn update_plays(&mut self) {
+        let (ups, downs) = self.play_lags();
+        self.update_plays_with(&ups, &downs);
+    }
+
+    /// Each play operator's lag on the way up, `(1 + a) r`, and on the way down, `(1 - a) r`.
+    fn play_lags(&self) -> ([f64; PLAYS], [f64; PLAYS]) {
         let a = self.cfg.hysteresis_asymmetry;
+        let (mut ups, mut downs) = ([0.0; PLAYS], [0.0; PLAYS]);
+        for ((up, down), r) in ups.iter_mut().zip(downs.iter_mut()).zip(self.radii.iter()) {
+            *up = r * (1.0 + a);
+            *down = r * (1.0 - a);
+        }
+        (ups, downs)
+    }
+
+    fn update_plays_with(&mut self, ups: &[f64; PLAYS], downs: &[f64; PLAYS]) {
         let x = self.pressure;
         // generalised play operators (Al Janaideh, Rakheja and Su, 2009): the ascending and
         // the descending branch follow different envelopes, x - b(x) and x + b(x), with a
@@ -202,9 +237,7 @@ impl Joint {
             self.effects.skew * (1.0 - x * x).max(0.0) * (1.0 + x) / 2.0
         };
         let (up_env, down_env) = (x - b, x + b);
-        for (y, r) in self.plays.iter_mut().zip(self.radii.iter()) {
-            let up = r * (1.0 + a);
-            let down = r * (1.0 - a);
+        for ((y, up), down) in self.plays.iter_mut().zip(ups).zip(downs) {
             if up_env - up > *y {
                 *y = up_env - up;
             } else if down_env + down < *y {
@@ -215,6 +248,18 @@ impl Joint {
 
     /// The equilibrium angle for the current play states (radians).
     pub fn equilibrium(&self) -> f64 {
+        let (mid, half) = self.mid_half();
+        self.equilibrium_about(mid, half)
+    }
+
+    /// The middle of the joint's range and half its span (radians).
+    fn mid_half(&self) -> (f64, f64) {
+        let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
+        (0.5 * (lo + hi), 0.5 * (hi - lo))
+    }
+
+    /// [`Joint::equilibrium`] with the range's middle and half span given.
+    fn equilibrium_about(&self, mid: f64, half: f64) -> f64 {
         let play: f64 = self.plays.iter().sum::<f64>() / PLAYS as f64;
         let y = if self.effects.width_scale == 1.0 {
             self.weight_linear * self.pressure + self.weight_play * play
@@ -224,9 +269,6 @@ impl Joint {
             (1.0 - wp) * self.pressure + wp * play
         };
         let s = (SHAPE * y).tanh() / tanh_shape();
-        let (lo, hi) = (self.cfg.min_deg.to_radians(), self.cfg.max_deg.to_radians());
-        let mid = 0.5 * (lo + hi);
-        let half = 0.5 * (hi - lo);
         mid + self.gain * half * s + self.offset + self.effects.process_offset
     }
 
@@ -244,24 +286,54 @@ impl Joint {
     /// One physics step of `dt` seconds: pressure lag, hysteresis, dynamics
     /// (semi-implicit Euler).
     pub fn step(&mut self, dt: f64) {
-        let k = dt / self.cfg.pressure_tau_s;
-        self.pressure += (self.command - self.pressure) * k.min(1.0);
-        self.update_plays();
-        let mut target = self.equilibrium();
+        let c = self.step_constants(dt);
+        self.step_with(&c);
+    }
+
+    /// What [`Joint::step`] of `dt` works out from the configuration and the effects that
+    /// stay the same from step to step (the drive's lag, the play operators' lags, the
+    /// creep's decay, the dynamics' coefficients, the range), for many steps at once
+    /// ([`crate::Plant::advance`]). Only `gain`, `offset` and the effects' `width_scale`
+    /// and `process_offset` may change between the steps that use them.
+    pub fn step_constants(&self, dt: f64) -> StepConstants {
+        let (ups, downs) = self.play_lags();
+        let (mid, half) = self.mid_half();
+        let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
+        StepConstants {
+            lag: (dt / self.cfg.pressure_tau_s).min(1.0),
+            ups,
+            downs,
+            creep_decay: if self.effects.creep_fraction > 0.0 {
+                creep_decay(dt, self.effects.creep_tau_s)
+            } else {
+                0.0
+            },
+            stiffness: wn * wn,
+            damping: 2.0 * self.cfg.damping_ratio * wn,
+            mid,
+            half,
+            dt,
+        }
+    }
+
+    /// One physics step with constants from [`Joint::step_constants`]: each operation as
+    /// [`Joint::step`] does it, so the result is the same bit for bit.
+    pub fn step_with(&mut self, c: &StepConstants) {
+        self.pressure += (self.command - self.pressure) * c.lag;
+        self.update_plays_with(&c.ups, &c.downs);
+        let mut target = self.equilibrium_about(c.mid, c.half);
         let fraction = self.effects.creep_fraction;
         if fraction > 0.0 {
             // viscoelastic creep: a fraction of every change of the equilibrium arrives with
             // the time constant creep_tau_s
             self.creep -= fraction * (target - self.eq_last);
             self.eq_last = target;
-            self.creep *= creep_decay(dt, self.effects.creep_tau_s);
+            self.creep *= c.creep_decay;
             target += self.creep;
         }
-        let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
-        let acc =
-            wn * wn * (target - self.angle) - 2.0 * self.cfg.damping_ratio * wn * self.velocity;
-        self.velocity += acc * dt;
-        let d = self.velocity * dt;
+        let acc = c.stiffness * (target - self.angle) - c.damping * self.velocity;
+        self.velocity += acc * c.dt;
+        let d = self.velocity * c.dt;
         self.angle += d;
         self.travel += d.abs();
     }
@@ -391,6 +463,91 @@ mod tests {
             peak > end + 0.05 * (end - start),
             "overshoot: peak {peak}, final {end}"
         );
+    }
+
+    /// The physics step as it was written before its constants were worked out once for
+    /// many steps: every operation in the same order.
+    fn step_as_written(j: &mut Joint, dt: f64) {
+        let k = dt / j.cfg.pressure_tau_s;
+        j.pressure += (j.command - j.pressure) * k.min(1.0);
+        let (a, x) = (j.cfg.hysteresis_asymmetry, j.pressure);
+        let b = if j.effects.skew == 0.0 {
+            0.0
+        } else {
+            j.effects.skew * (1.0 - x * x).max(0.0) * (1.0 + x) / 2.0
+        };
+        let (up_env, down_env) = (x - b, x + b);
+        for (y, r) in j.plays.iter_mut().zip(j.radii.iter()) {
+            let up = r * (1.0 + a);
+            let down = r * (1.0 - a);
+            if up_env - up > *y {
+                *y = up_env - up;
+            } else if down_env + down < *y {
+                *y = down_env + down;
+            }
+        }
+        let play: f64 = j.plays.iter().sum::<f64>() / PLAYS as f64;
+        let y = if j.effects.width_scale == 1.0 {
+            j.weight_linear * j.pressure + j.weight_play * play
+        } else {
+            let wp = (j.weight_play * j.effects.width_scale).min(0.95);
+            (1.0 - wp) * j.pressure + wp * play
+        };
+        let s = (SHAPE * y).tanh() / SHAPE.tanh();
+        let (lo, hi) = (j.cfg.min_deg.to_radians(), j.cfg.max_deg.to_radians());
+        let mid = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo);
+        let mut target = mid + j.gain * half * s + j.offset + j.effects.process_offset;
+        let fraction = j.effects.creep_fraction;
+        if fraction > 0.0 {
+            j.creep -= fraction * (target - j.eq_last);
+            j.eq_last = target;
+            j.creep *= (-dt / j.effects.creep_tau_s).exp();
+            target += j.creep;
+        }
+        let wn = 2.0 * std::f64::consts::PI * j.cfg.natural_freq_hz;
+        let acc = wn * wn * (target - j.angle) - 2.0 * j.cfg.damping_ratio * wn * j.velocity;
+        j.velocity += acc * dt;
+        let d = j.velocity * dt;
+        j.angle += d;
+        j.travel += d.abs();
+    }
+
+    /// Steps with constants worked out once ([`Joint::step_constants`], as the plant's
+    /// `advance` does) are the steps as written, bit for bit, with a skewed loop, creep, a
+    /// load-dependent width and drift changing between the steps: the runs' figures and
+    /// golden curves do not move.
+    #[test]
+    fn steps_with_kept_constants_are_the_steps_as_written() {
+        let cfg = SimConfig::realistic();
+        for (i, jc) in cfg.joints.iter().enumerate() {
+            let mut a = Joint::new(jc);
+            a.effects = JointEffects {
+                skew: cfg.realism.hysteresis_skew,
+                creep_fraction: cfg.realism.creep_fraction,
+                creep_tau_s: cfg.realism.creep_tau_s,
+                ..JointEffects::NONE
+            };
+            let mut b = a.clone();
+            for (m, p) in [0.7, -0.4, 0.35, -0.9, 0.1].into_iter().enumerate() {
+                a.command_raw(raw_of(p));
+                b.command_raw(raw_of(p));
+                let c = a.step_constants(0.001);
+                for n in 0..800 {
+                    let t = (m * 800 + n) as f64;
+                    for j in [&mut a, &mut b] {
+                        j.gain = 1.0 - 1e-5 * t;
+                        j.offset = 1e-4 * (t * 0.01 + i as f64).sin();
+                        // the load's width: at times exactly 1 (the narrow loop's branch)
+                        j.effects.width_scale = 1.0 + (0.25 * (t * 0.003).cos()).max(0.0);
+                        j.effects.process_offset = 1e-3 * m as f64;
+                    }
+                    a.step_with(&c);
+                    step_as_written(&mut b, 0.001);
+                    assert_eq!(a, b, "joint {i}, move {m}, step {n}");
+                }
+            }
+        }
     }
 
     /// The kept values are the libm calls' own, also when dt or tau change back and forth.

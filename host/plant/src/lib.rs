@@ -225,6 +225,19 @@ impl Plant {
 
     /// One physics step.
     pub fn step(&mut self) {
+        let c = self.step_constants();
+        self.step_with(&c);
+    }
+
+    /// Each joint's constants of a physics step ([`Joint::step_constants`]), the same for
+    /// every step of an [`Plant::advance`].
+    fn step_constants(&self) -> Vec<joint::StepConstants> {
+        let dt = self.cfg.dt_s;
+        self.joints.iter().map(|j| j.step_constants(dt)).collect()
+    }
+
+    /// One physics step with each joint's constants from [`Plant::step_constants`].
+    fn step_with(&mut self, constants: &[joint::StepConstants]) {
         let dt = self.cfg.dt_s;
         let d = &self.cfg.drift;
         let temp = if d.temperature {
@@ -235,7 +248,7 @@ impl Plant {
         };
         let (sag, load) = self.gravity();
         let load_width_gain = self.cfg.realism.load_width_gain;
-        for (i, j) in self.joints.iter_mut().enumerate() {
+        for ((i, j), c) in self.joints.iter_mut().enumerate().zip(constants) {
             let (gain, wear_off) = if d.wear {
                 // linear in the travel at first, bounded (drift.wear_gain_max,
                 // drift.wear_offset_max_deg)
@@ -254,7 +267,7 @@ impl Plant {
             if load_width_gain > 0.0 {
                 j.effects.width_scale = 1.0 + load_width_gain * load[i];
             }
-            j.step(dt);
+            j.step_with(c);
         }
         self.time_s += dt;
     }
@@ -262,8 +275,9 @@ impl Plant {
     /// Advances time by `seconds`.
     pub fn advance(&mut self, seconds: f64) {
         let n = (seconds / self.cfg.dt_s).round() as usize;
+        let constants = self.step_constants();
         for _ in 0..n {
-            self.step();
+            self.step_with(&constants);
         }
     }
 

@@ -40,6 +40,29 @@ fn same_seed_same_trajectory_bit_for_bit() {
     assert_ne!(run(4), run(5));
 }
 
+/// `advance` works each joint's step constants out once for all its steps: the same as
+/// stepping one step at a time, bit for bit, with drift, wear, gravity and a load-dependent
+/// loop changing as the arm moves.
+#[test]
+fn advance_is_its_steps_one_at_a_time() {
+    let mut cfg = SimConfig::realistic_aging();
+    cfg.drift.wear_gain_per_rad *= 100.0;
+    let mut a = Plant::new(&cfg, 3).unwrap();
+    let mut b = Plant::new(&cfg, 3).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    for _ in 0..4 {
+        let p = a.random_pressures(&mut rng);
+        a.command(&p);
+        b.command(&p);
+        a.advance(0.6);
+        for _ in 0..600 {
+            b.step();
+        }
+        assert_eq!(a.joints(), b.joints());
+        assert_eq!(a.time_s().to_bits(), b.time_s().to_bits());
+    }
+}
+
 #[test]
 fn bad_configs_name_the_key() {
     let mut c = SimConfig::default();

@@ -29,8 +29,15 @@ impl Problem<'_> {
     /// The residuals in noise units (readings, then the prior's rows); `None` when a marker
     /// leaves an image.
     fn residuals(&self, b: &Body) -> Option<Vec<f64>> {
-        let m = b.markers(self.d);
         let mut r = Vec::with_capacity(2 * self.readings.len() + 6);
+        self.residuals_into(b, &mut r)?;
+        Some(r)
+    }
+
+    /// [`Problem::residuals`] into `r` (its allocation reused).
+    fn residuals_into(&self, b: &Body, r: &mut Vec<f64>) -> Option<()> {
+        r.clear();
+        let m = b.markers(self.d);
         for s in &self.readings {
             let (u, v) = self.cams[s.cam].project(&m[s.marker])?;
             r.extend([(u - s.uv.0) / self.sigma, (v - s.uv.1) / self.sigma]);
@@ -41,36 +48,47 @@ impl Problem<'_> {
                 r.extend((b.normal - n).map(|x| x / PRIOR_TURN_RAD).iter());
             }
         }
-        Some(r)
+        Some(())
     }
 
     /// Residuals and their Jacobian in the body's local coordinates.
     fn linearised(&self, b: &Body) -> Option<(Vec<f64>, Vec<[f64; 5]>)> {
+        let mut s = Scratch::default();
+        self.linearised_into(b, &mut s)?;
+        Some((s.r, s.jac))
+    }
+
+    /// [`Problem::linearised`] into `s.r` and `s.jac` (`s.rk` the moved bodies' residuals).
+    fn linearised_into(&self, b: &Body, s: &mut Scratch) -> Option<()> {
         const H: f64 = 1e-4;
-        let r = self.residuals(b)?;
-        let mut jac = vec![[0.0; 5]; r.len()];
+        self.residuals_into(b, &mut s.r)?;
+        s.jac.clear();
+        s.jac.resize(s.r.len(), [0.0; 5]);
         for k in 0..5 {
             let mut x = [0.0; 5];
             x[k] = H;
-            let rk = self.residuals(&b.moved(&x))?;
-            for (row, (a, b)) in jac.iter_mut().zip(rk.iter().zip(&r)) {
+            self.residuals_into(&b.moved(&x), &mut s.rk)?;
+            for (row, (a, b)) in s.jac.iter_mut().zip(s.rk.iter().zip(&s.r)) {
                 row[k] = (a - b) / H;
             }
         }
-        Some((r, jac))
+        Some(())
     }
 
     /// Levenberg-Marquardt from `start`; the body and its cost.
     fn solve(&self, start: Body) -> Option<(Body, f64)> {
         let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+        let mut s = Scratch::default();
         let mut b = start;
-        let mut c = cost(&self.residuals(&b)?);
+        self.residuals_into(&b, &mut s.rn)?;
+        let mut c = cost(&s.rn);
         let mut lambda = 1e-3;
         for _ in 0..40 {
-            let (r, jac) = self.linearised(&b)?;
-            let jtj = normal_matrix(&jac);
+            self.linearised_into(&b, &mut s)?;
+            let (r, jac) = (&s.r, &s.jac);
+            let jtj = normal_matrix(jac);
             let jtr =
-                SVector::<f64, 5>::from_fn(|a, _| jac.iter().zip(&r).map(|(j, r)| j[a] * r).sum());
+                SVector::<f64, 5>::from_fn(|a, _| jac.iter().zip(r).map(|(j, r)| j[a] * r).sum());
             let mut improved = false;
             for _ in 0..8 {
                 let damped = jtj
@@ -83,9 +101,9 @@ impl Problem<'_> {
                 };
                 let x: [f64; 5] = core::array::from_fn(|k| -step[k]);
                 let next = b.moved(&x);
-                match self.residuals(&next) {
-                    Some(rn) if cost(&rn) < c => {
-                        (b, c) = (next, cost(&rn));
+                match self.residuals_into(&next, &mut s.rn) {
+                    Some(()) if cost(&s.rn) < c => {
+                        (b, c) = (next, cost(&s.rn));
                         lambda = (lambda / 3.0).max(1e-9);
                         improved = true;
                         break;
@@ -181,7 +199,53 @@ impl Problem<'_> {
     }
 }
 
-/// `J^T J` of rows `jac`.
+/// `J^T J` of rows `jac`: each sum over the rows in their order, the lower triangle the
+/// upper one's mirror (`j[a] * j[b]` is `j[b] * j[a]`, bit for bit).
 fn normal_matrix(jac: &[[f64; 5]]) -> SMatrix<f64, 5, 5> {
-    SMatrix::<f64, 5, 5>::from_fn(|a, b| jac.iter().map(|j| j[a] * j[b]).sum())
+    let mut m = SMatrix::<f64, 5, 5>::zeros();
+    for a in 0..5 {
+        for b in a..5 {
+            let v: f64 = jac.iter().map(|j| j[a] * j[b]).sum();
+            m[(a, b)] = v;
+            m[(b, a)] = v;
+        }
+    }
+    m
+}
+
+/// The buffers of a fit's evaluations, reused from one to the next.
+#[derive(Default)]
+struct Scratch {
+    /// Residuals at the body, and at a body moved along one coordinate.
+    r: Vec<f64>,
+    rk: Vec<f64>,
+    /// Residuals at a step's candidate body.
+    rn: Vec<f64>,
+    /// The residuals' Jacobian, one row a residual.
+    jac: Vec<[f64; 5]>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The mirrored `J^T J` is every entry's own sum, bit for bit.
+    #[test]
+    fn the_normal_matrix_is_each_entrys_sum() {
+        let mut x = 0.123_f64;
+        let jac: Vec<[f64; 5]> = (0..17)
+            .map(|_| {
+                core::array::from_fn(|_| {
+                    x = (x * 3.7 + 0.31).fract();
+                    (x - 0.5) * 1e3
+                })
+            })
+            .collect();
+        let full =
+            SMatrix::<f64, 5, 5>::from_fn(|a, b| jac.iter().map(|j| j[a] * j[b]).sum::<f64>());
+        assert_eq!(
+            normal_matrix(&jac).map(f64::to_bits),
+            full.map(f64::to_bits)
+        );
+    }
 }
