@@ -10,7 +10,8 @@
 //! (settle, stereo check, new frames, hidden lights filled from the marker fit): one move.
 //!
 //! The options ([`Options`]) change the plant the lab runs only when asked: `dt_s` (a
-//! coarser physics step, faster), `persistent` (the arm carries over from one episode to the
+//! coarser physics step, each joint's dynamics solved exactly over it: faster, and close to
+//! the lab's 1 ms steps), `persistent` (the arm carries over from one episode to the
 //! next: drift and wear build up), `randomise` (each plant built draws its joints'
 //! dynamics and loop width around the configured values, from the episode's seed).
 //!
@@ -63,7 +64,9 @@ fn reading<const K: usize>(r: &Readings<K>) -> (Vec<f64>, Vec<u8>) {
 /// How an arm departs from the lab's plant (see the module); the default departs in nothing.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Options {
-    /// The physics step (s) instead of the configuration's.
+    /// The physics step (s) of a settle, each joint's dynamics solved exactly over a step
+    /// (`Plant::set_exact_step`, at most `trn_plant::EXACT_STEP_MAX_S`), instead of the
+    /// configuration's 1 ms steps of Euler's rule.
     pub dt_s: Option<f64>,
     /// The plant carries over from one episode to the next.
     pub persistent: bool,
@@ -153,7 +156,7 @@ impl Sim {
         // validation checks is on one value, so the extreme factors are the cases to check
         let r = options.randomise;
         for f in [1.0 - r, 1.0 + r] {
-            Sim::scaled(&cfg, &options, || f).validate().map_err(|e| {
+            Sim::scaled(&cfg, || f).validate().map_err(|e| {
                 if r > 0.0 {
                     format!("randomise {r}: a plant it can draw is not valid: {e}")
                 } else {
@@ -161,8 +164,11 @@ impl Sim {
                 }
             })?;
         }
-        let plant =
+        let mut plant =
             Plant::new(&Sim::plant_config(&cfg, &options, 0), 0).map_err(|e| e.to_string())?;
+        plant
+            .set_exact_step(options.dt_s)
+            .map_err(|e| format!("dt_s: {e}"))?;
         let k = if stage == 1 { 4 } else { 2 };
         Ok(Sim {
             cfg,
@@ -182,12 +188,11 @@ impl Sim {
         })
     }
 
-    /// The configuration of a plant built from `seed`: the options' physics step and
-    /// randomised joints.
+    /// The configuration of a plant built from `seed`: the options' randomised joints.
     fn plant_config(cfg: &SimConfig, options: &Options, seed: u64) -> SimConfig {
         let r = options.randomise;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0DA1_B0A7_5EED);
-        Sim::scaled(cfg, options, || {
+        Sim::scaled(cfg, || {
             if r > 0.0 {
                 uniform(&mut rng, 1.0 - r, 1.0 + r)
             } else {
@@ -196,13 +201,10 @@ impl Sim {
         })
     }
 
-    /// `cfg` with the options' physics step and each joint's natural frequency, damping
-    /// ratio, pressure lag and loop width multiplied by successive `factor()`s.
-    fn scaled(cfg: &SimConfig, options: &Options, mut factor: impl FnMut() -> f64) -> SimConfig {
+    /// `cfg` with each joint's natural frequency, damping ratio, pressure lag and loop
+    /// width multiplied by successive `factor()`s.
+    fn scaled(cfg: &SimConfig, mut factor: impl FnMut() -> f64) -> SimConfig {
         let mut c = cfg.clone();
-        if let Some(dt) = options.dt_s {
-            c.dt_s = dt;
-        }
         for j in &mut c.joints {
             j.natural_freq_hz *= factor();
             j.damping_ratio *= factor();
@@ -265,6 +267,9 @@ impl Sim {
         if !(self.options.persistent && self.started) {
             let cfg = Sim::plant_config(&self.cfg, &self.options, seed);
             self.plant = Plant::new(&cfg, seed).map_err(|e| e.to_string())?;
+            self.plant
+                .set_exact_step(self.options.dt_s)
+                .map_err(|e| format!("dt_s: {e}"))?;
             self.plant_seed = seed;
             self.started = true;
         }
@@ -549,8 +554,13 @@ impl Arm {
     /// The arm whose state `state()` gave.
     #[staticmethod]
     fn from_state(state: &[u8]) -> PyResult<Arm> {
-        let sim: Sim = postcard::from_bytes(state)
+        let mut sim: Sim = postcard::from_bytes(state)
             .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
+        // the plant's step is not part of its saved state: the options say it
+        let dt = sim.options.dt_s;
+        sim.plant
+            .set_exact_step(dt)
+            .map_err(|e| PyValueError::new_err(format!("not an arm's state: dt_s: {e}")))?;
         Ok(Arm { sim })
     }
 

@@ -48,9 +48,10 @@ def test_human_mode_offered_only_when_it_can_work():
             SoftArmEnv(render_mode="human")
 
 
-@pytest.mark.parametrize("restore", ["pickle", "deepcopy"])
-def test_saved_state_restores_bit_for_bit(restore):
-    env = SoftArmEnv()
+@pytest.mark.parametrize("restore,dt_s", [("pickle", None), ("deepcopy", None), ("pickle", 0.05)])
+def test_saved_state_restores_bit_for_bit(restore, dt_s):
+    # with dt_s the restored arm goes on with the same exact steps (the options say them)
+    env = SoftArmEnv(dt_s=dt_s)
     env.reset(seed=11)
     for a in random_actions(env.action_space, 3, seed=1):
         env.step(a)
@@ -223,8 +224,10 @@ def test_a_bad_action_is_a_value_error():
 
 
 def test_dt_option_is_faithful_and_bounded():
-    # 10 ms instead of 1 ms: the lights' true pixels within a pixel of the lab's plant
-    lab, fast = Arm("realistic", 1), Arm("realistic", 1, 0.01)
+    # 50 ms, its dynamics solved exactly, instead of the lab's 1 ms steps: the lights' true
+    # pixels within a fraction of the camera noise (0.3 px) of the lab's plant (measured:
+    # 0.06 px median, 0.16 p90; Euler's rule at 10 ms was 0.20 and 0.54)
+    lab, fast = Arm("realistic", 1), Arm("realistic", 1, 0.05)
     rng = np.random.default_rng(0)
     diffs = []
     for episode in range(6):
@@ -236,9 +239,10 @@ def test_dt_option_is_faithful_and_bounded():
             seen = np.array(i["lights_true_in_view"]) & np.array(j["lights_true_in_view"])
             d = np.array(i["lights_true"]).reshape(-1, 2) - np.array(j["lights_true"]).reshape(-1, 2)
             diffs += list(np.hypot(*d.T)[seen])
-    assert 0 < np.median(diffs) < 0.5 and np.percentile(diffs, 90) < 1.0, np.percentile(diffs, [50, 90])
-    with pytest.raises(ValueError, match="dt_s"):
-        SoftArmEnv(dt_s=0.05)
+    assert 0 < np.median(diffs) < 0.1 and np.percentile(diffs, 90) < 0.3, np.percentile(diffs, [50, 90])
+    for bad in (0.06, 0.0, -0.01, float("nan")):
+        with pytest.raises(ValueError, match="dt_s"):
+            SoftArmEnv(dt_s=bad)
 
 
 def test_persistent_arm_ages_across_resets():
@@ -268,13 +272,13 @@ def test_randomised_plant_is_reproducible_from_its_seed():
     assert not np.array_equal(r1, r2)
     with pytest.raises(ValueError, match="randomise"):
         SoftArmEnv(randomise=0.9)
-    # a physics step too coarse for the fastest joint it may draw (2 pi f dt <= 0.2) is
-    # refused when the env is made, not at some later reset
-    with pytest.raises(ValueError, match="randomise 0.5.*natural_freq_hz"):
-        SoftArmEnv(dt_s=0.01, randomise=0.5)
-    env = SoftArmEnv(dt_s=0.01, randomise=0.2)
+    # the coarsest physics step solves each joint's dynamics exactly: the fastest and least
+    # damped joints randomise may draw are stable at it
+    env = SoftArmEnv(dt_s=0.05, randomise=0.5)
     for seed in range(5):
         env.reset(seed=seed)
+        _, _, _, _, info = env.step(np.full(5, 0.4, dtype=np.float32))
+        assert np.all(np.isfinite(info["joint_angles_deg"]))
 
 
 def test_flat_observation():

@@ -70,7 +70,14 @@ pub struct Plant {
     move_noise: Vec<Xoshiro256PlusPlus>,
     time_s: f64,
     cylinder: Option<Cylinder>,
+    /// The step of [`Plant::set_exact_step`], when set (not part of the plant's saved
+    /// state: whoever set it sets it again on a restored plant).
+    #[serde(skip)]
+    exact_step_s: Option<f64>,
 }
+
+/// The coarsest step [`Plant::set_exact_step`] takes (s).
+pub const EXACT_STEP_MAX_S: f64 = 0.05;
 
 /// One process-noise generator per joint, from the plant's seed.
 fn move_noise(seed: u64, joints: usize) -> Vec<Xoshiro256PlusPlus> {
@@ -93,6 +100,7 @@ impl Plant {
             time_s: 0.0,
             cylinder: None,
             cfg: cfg.clone(),
+            exact_step_s: None,
         })
     }
 
@@ -113,6 +121,7 @@ impl Plant {
             time_s: self.time_s,
             cylinder: None,
             cfg: self.cfg.clone(),
+            exact_step_s: self.exact_step_s,
         };
         // the drift and wear of this moment, applied at rest
         twin.step();
@@ -238,7 +247,47 @@ impl Plant {
 
     /// One physics step with each joint's constants from [`Plant::step_constants`].
     fn step_with(&mut self, constants: &[joint::StepConstants]) {
-        let dt = self.cfg.dt_s;
+        self.set_effects();
+        for (j, c) in self.joints.iter_mut().zip(constants) {
+            j.step_with(c);
+        }
+        self.time_s += self.cfg.dt_s;
+    }
+
+    /// One exact step ([`Plant::set_exact_step`]) of `step_s`.
+    fn step_exact(&mut self, step_s: f64, constants: &[joint::ExactConstants]) {
+        self.set_effects();
+        for (j, c) in self.joints.iter_mut().zip(constants) {
+            j.step_exact(c);
+        }
+        self.time_s += step_s;
+    }
+
+    /// Settles by steps of `step_s` (at most [`EXACT_STEP_MAX_S`]) with each joint's
+    /// dynamics solved exactly over a step ([`Joint::step_exact`]) instead of the
+    /// configuration's `dt_s` steps of Euler's rule: fewer steps for the same settle, close
+    /// to the lab's 1 ms steps (a coarser physics for the Python environment). `None` goes
+    /// back to the configuration's steps. A plant restored from its saved state has none.
+    pub fn set_exact_step(&mut self, step_s: Option<f64>) -> Result<(), Error> {
+        if let Some(s) = step_s {
+            if !(1e-4..=EXACT_STEP_MAX_S).contains(&s) {
+                return Err(Error::Config(format!(
+                    "the exact physics step is between 0.0001 and {EXACT_STEP_MAX_S} s, got {s}"
+                )));
+            }
+        }
+        self.exact_step_s = step_s;
+        Ok(())
+    }
+
+    /// The step of [`Plant::set_exact_step`], if set.
+    pub fn exact_step(&self) -> Option<f64> {
+        self.exact_step_s
+    }
+
+    /// Drift, wear and gravity of this moment set on every joint, for the step that follows.
+    #[inline(always)]
+    fn set_effects(&mut self) {
         let d = &self.cfg.drift;
         let temp = if d.temperature {
             d.temperature_amplitude_deg.to_radians()
@@ -248,7 +297,7 @@ impl Plant {
         };
         let (sag, load) = self.gravity();
         let load_width_gain = self.cfg.realism.load_width_gain;
-        for ((i, j), c) in self.joints.iter_mut().enumerate().zip(constants) {
+        for (i, j) in self.joints.iter_mut().enumerate() {
             let (gain, wear_off) = if d.wear {
                 // linear in the travel at first, bounded (drift.wear_gain_max,
                 // drift.wear_offset_max_deg)
@@ -267,13 +316,24 @@ impl Plant {
             if load_width_gain > 0.0 {
                 j.effects.width_scale = 1.0 + load_width_gain * load[i];
             }
-            j.step_with(c);
         }
-        self.time_s += dt;
     }
 
-    /// Advances time by `seconds`.
+    /// Advances time by `seconds`: by the configuration's `dt_s` steps of Euler's rule (the
+    /// lab's), or by the exact steps of [`Plant::set_exact_step`] when set.
     pub fn advance(&mut self, seconds: f64) {
+        if let Some(step) = self.exact_step_s {
+            let n = (seconds / step).round() as usize;
+            let constants: Vec<_> = self
+                .joints
+                .iter()
+                .map(|j| j.exact_constants(step))
+                .collect();
+            for _ in 0..n {
+                self.step_exact(step, &constants);
+            }
+            return;
+        }
         let n = (seconds / self.cfg.dt_s).round() as usize;
         let constants = self.step_constants();
         for _ in 0..n {

@@ -162,7 +162,8 @@ class SoftArmEnv(gym.Env):
     runs use only when set:
 
     - ``dt_s``: the physics step (s) of the settle instead of the plant's 1 ms (at most
-      0.01): fewer steps, faster, at a small cost in fidelity (``python/README.md`` gives
+      0.05), each joint's dynamics solved exactly over a step: fewer steps, faster, and
+      within a fraction of the camera noise of the lab's plant (``python/README.md`` gives
       the measured difference).
     - ``persistent``: the arm carries over from one episode to the next (its time, drift,
       wear, hysteresis history); ``reset(seed)`` then draws only a new target and start pose.
