@@ -150,7 +150,12 @@ fn action() -> impl Strategy<Value = Action> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    // a fixed seed: the same cases every run (the failures found so far are replayed first
+    // from tables_property.proptest-regressions)
+    #![proptest_config(ProptestConfig {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x007A_B1E5),
+        ..ProptestConfig::with_cases(48)
+    })]
 
     #[test]
     fn tables_change_only_in_a_learning_trial_or_through_the_nonce(
@@ -164,6 +169,11 @@ proptest! {
         // its target asked to and the mode was not Mature
         let mut grasp_learn: HashMap<u32, bool> = HashMap::new();
         let mut may_learn: HashMap<u32, bool> = HashMap::new();
+        // the trial of the last SupervisedPressure sent: a Stage1Target of that trial is a
+        // priming trial and learns whatever its learn flag says (SPEC 3.1). Forgotten only
+        // when a stage-1 target starts a trial (the node takes it then), so it may
+        // outlive the node's (which a new session drops): it only ever allows more.
+        let mut supervised: Option<u32> = None;
         for a in actions {
             now += 1;
             let before = image(&b.ctrl);
@@ -179,10 +189,16 @@ proptest! {
                             grasp_learn.insert(t.trial, t.learn);
                         }
                     }
+                    if let Message::SupervisedPressure(s) = m {
+                        supervised = Some(s.trial);
+                    }
                     n.on_message(&mut b, &to_ctrl(*m), now, &mut out);
                     if let Some(t) = n.trial().filter(|t| trial_before != Some(*t)) {
                         let asked = match m {
-                            Message::Stage1Target(s) => s.learn,
+                            Message::Stage1Target(s) => {
+                                let primed = supervised.take() == Some(t);
+                                s.learn || primed
+                            }
                             Message::Stage2Target(s) if s.grasp => {
                                 grasp_learn.get(&t).copied().unwrap_or(true)
                             }

@@ -278,3 +278,50 @@ fn a_move_a_drive_did_not_make_is_not_trusted() {
     );
     assert!(!c.busy());
 }
+
+/// A `SupervisedPressure` belongs to the session it came in: a new session's configuration,
+/// or `Idle` (the session's end), drops one no target took, so a later session's trial of
+/// the same number is not taught the old session's pressures (it reports stage 1, not the
+/// supervised stage 0).
+#[test]
+fn a_supervised_pressure_does_not_outlive_its_session() {
+    use trn_protocol::{Mode, ModeChange};
+    let stage_of_trial_7 = |end_session: Message| {
+        let (mut c, mut n) = setup();
+        let mut out = Outbox::new();
+        let supervised = SupervisedPressure {
+            trial: 7,
+            p: [0.1; 5],
+        };
+        n.on_message(&mut c, &to_ctrl(supervised.into()), 0, &mut out);
+        n.on_message(&mut c, &to_ctrl(end_session), 0, &mut out);
+        n.on_message(
+            &mut c,
+            &to_ctrl(common::session(3, false).into()),
+            0,
+            &mut out,
+        );
+        out.clear();
+        let target = Stage1Target {
+            trial: 7,
+            learn: true,
+            grasp: false,
+            fine_moves: trn_protocol::FINE_MOVES_POLICY,
+            v: V,
+        };
+        n.on_message(&mut c, &to_ctrl(target.into()), 0, &mut out);
+        let mut seq = capture(&mut n, &mut c, &out, 5).0;
+        for _ in 0..10 {
+            out.clear();
+            n.on_message(&mut c, &lights(seq, &V), 10, &mut out);
+            if let Some(r) = reports(&out).first() {
+                return r.stage;
+            }
+            seq = capture(&mut n, &mut c, &out, 5).0;
+        }
+        panic!("no report");
+    };
+    // another session's configuration; the session's end
+    assert_eq!(stage_of_trial_7(common::session(2, false).into()), 1);
+    assert_eq!(stage_of_trial_7(ModeChange { mode: Mode::Idle }.into()), 1);
+}

@@ -43,8 +43,10 @@ impl ControllerNode {
     }
 
     /// A session begins or ends: no trial of it is remembered (a new session numbers its
-    /// trials afresh).
+    /// trials afresh), and a supervised pressure no target took is dropped (it belongs to
+    /// the old session's trial of its number, not to the new session's).
     pub(super) fn forget_trials(&mut self) {
+        self.supervised = None;
         if self.trial.is_none() {
             self.last_trial = None;
             self.last_final.clear();
