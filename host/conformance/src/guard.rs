@@ -16,7 +16,7 @@ use trn_protocol::{
     SessionConfig, StoreCommand, StoreOp, TablesEvent,
 };
 
-use super::{nothing_moved, stage1, Suite};
+use super::{refused_start, stage1, Suite};
 use trn_bench::journal::{echoed, errors, missing_error, refused_unacknowledged, reports};
 use trn_bench::{LabError, Result};
 
@@ -105,17 +105,12 @@ where
             stage1(trial, &t, 0, false).into(),
             Self::error_seen(codes::SESSION_REQUIRED),
         )?;
-        let mut p = nothing_moved(&j);
-        p.extend(missing_error(
+        Ok(refused_start(
             &j,
             codes::SESSION_REQUIRED,
             trial,
             "SESSION_REQUIRED",
-        ));
-        if !reports(&j).is_empty() {
-            p.push(format!("reports {:?}", reports(&j)));
-        }
-        Ok(p)
+        ))
     }
 
     /// `confirmed` refused by the guard with `detail` and not acknowledged: the problems.

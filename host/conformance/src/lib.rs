@@ -17,7 +17,8 @@
 //! does not train has none); the checks that need a running controller or learned tables
 //! are then reported as not applicable ([`Check::skipped`]), not passed or failed.
 //!
-//! The sequences: `sequences.rs` (session, priming, training, aborts, a late duplicate),
+//! The sequences: `sequences.rs` (session, a supervised pressure the next session drops,
+//! priming, training, aborts, a late duplicate),
 //! `mature.rs` (grasps and their repeats, frozen tables, configurations outside `Idle`),
 //! `tables.rs` (the tables' status, chunk 0, a save, an erase refused, an unsupported law), `guard.rs` (after `Idle`:
 //! trials refused, the nonce's refusals and its acceptance), `writes.rs` (a table write's
@@ -263,6 +264,17 @@ pub(crate) fn nothing_moved(j: &[Envelope]) -> Vec<String> {
         })
     {
         p.push("the controller moved".to_string());
+    }
+    p
+}
+
+/// Problems if a target answered with the error `code` (its detail the trial, named
+/// `name`) moved, reported, or was not answered so.
+pub(crate) fn refused_start(j: &[Envelope], code: u16, trial: u32, name: &str) -> Vec<String> {
+    let mut p = nothing_moved(j);
+    p.extend(trn_bench::journal::missing_error(j, code, trial, name));
+    if !reports(j).is_empty() {
+        p.push(format!("reports {:?}", reports(j)));
     }
     p
 }

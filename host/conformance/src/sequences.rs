@@ -1,4 +1,5 @@
-//! The session's trial sequences (SPEC 3, 3.1, 3.2): the configuration and its repeat,
+//! The session's trial sequences (SPEC 3, 3.1, 3.2): the configuration and its repeat, a
+//! supervised pressure that no target took dropped by the next session's configuration,
 //! priming with and without supervision, training trials of both stages with a fixed
 //! number of fine moves and with the controller's own rule, a late duplicate of an older
 //! trial, a trial pre-empted by a newer one, an invalid reading's abort and its repeat, a
@@ -8,18 +9,28 @@ use embedded_can::blocking::Can;
 use trn_node::codes;
 use trn_protocol::bus::ReceiveTimeout;
 use trn_protocol::{
-    CanFrame, CaptureKind, Envelope, Message, Mode, PointStatus, SessionConfig, SupervisedPressure,
+    CanFrame, CaptureKind, Envelope, Message, Mode, PointStatus, SessionConfig, Stage1Target,
+    SupervisedPressure,
 };
 
-use super::{nothing_moved, stage1, stage2, Suite, STAGE1_JOINTS, STAGE2_JOINTS};
+use super::{nothing_moved, refused_start, stage1, stage2, Suite, STAGE1_JOINTS, STAGE2_JOINTS};
 use trn_bench::journal::{errors, missing_error, move_problems, moves, reports};
 use trn_bench::Result;
+
+/// A supervised pressure sent before another session began, which no target took.
+struct Stale {
+    trial: u32,
+    /// Its stage-1 target (lights p and q in both cameras).
+    v: [f32; 8],
+    problems: Vec<String>,
+}
 
 impl<P> Suite<'_, P>
 where
     P: Can<Frame = CanFrame, Error = trn_protocol::Error> + ReceiveTimeout,
 {
     pub(super) fn session(&mut self, session: SessionConfig) -> Result<()> {
+        let stale = self.stale_supervision(session)?;
         let first = self.runner.configure(session);
         let repeat = self.runner.configure(session);
         self.collect(|_| true, false)?;
@@ -36,6 +47,81 @@ where
             "ModeChange{Priming} is acknowledged (echo to Broadcast)",
             mode.err().map(|e| e.to_string()).into_iter().collect(),
         );
+        self.stale_supervision_dropped(stale)
+    }
+
+    /// Before the suite's session: a `SupervisedPressure` that no target takes, then another
+    /// session's configuration accepted (the suite's seed + 1), which drops it (SPEC 3.1).
+    /// The trial it was for, its target and the problems so far; `None` for a version-3
+    /// controller.
+    fn stale_supervision(&mut self, session: SessionConfig) -> Result<Option<Stale>> {
+        if self.v3 {
+            return Ok(None);
+        }
+        // pressures and a target that need not be reachable: the target must start nothing,
+        // and the arm is not moved for it (the suite's later targets are drawn as before)
+        let trial = self.next_trial();
+        let sup = SupervisedPressure {
+            trial,
+            p: [0.25, -0.25, 0.1, -0.1, 0.0],
+        };
+        self.send(sup.into())?;
+        let (w, h) = (session.image_width as f32, session.image_height as f32);
+        let v = [
+            0.45 * w,
+            0.5 * h,
+            0.4 * w,
+            0.5 * h,
+            0.55 * w,
+            0.5 * h,
+            0.5 * w,
+            0.5 * h,
+        ];
+        let other = SessionConfig {
+            seed: session.seed.wrapping_add(1),
+            ..session
+        };
+        let p = match self.runner.configure(other) {
+            Ok(()) => vec![],
+            Err(e) => vec![format!("another session's configuration: {e}")],
+        };
+        self.collect(|_| true, false)?;
+        Ok(Some(Stale {
+            trial,
+            v,
+            problems: p,
+        }))
+    }
+
+    /// In the suite's session, `Priming`: the target of the trial whose supervised pressure
+    /// the configuration dropped starts nothing (`MISSING_SUPERVISION`).
+    fn stale_supervision_dropped(&mut self, stale: Option<Stale>) -> Result<()> {
+        const NAME: &str = "A SupervisedPressure no target took is dropped by the next session's SessionConfig: that session's Stage1Target of its trial starts nothing (MISSING_SUPERVISION)";
+        let Some(Stale {
+            trial,
+            v,
+            problems: mut p,
+        }) = stale
+        else {
+            self.skip(NAME, super::V4_ONLY);
+            return Ok(());
+        };
+        let target = Stage1Target {
+            trial,
+            learn: true,
+            grasp: false,
+            fine_moves: 1,
+            v,
+        };
+        self.send(target.into())?;
+        let j = self.collect(Self::error_seen(codes::MISSING_SUPERVISION), true)?;
+        p.extend(refused_start(
+            &j,
+            codes::MISSING_SUPERVISION,
+            trial,
+            "MISSING_SUPERVISION",
+        ));
+        self.verdict(NAME, p);
         Ok(())
     }
 
