@@ -1042,6 +1042,11 @@ mod tests {
     }
 
     proptest! {
+        // a fixed seed: the same cases every run
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x4b1e),
+            ..ProptestConfig::default()
+        })]
         /// The weight update moves each w_k towards the target and never past it (f32
         /// tables: a compact entry rounds to its step, which may pass the target by half a
         /// step).

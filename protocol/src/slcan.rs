@@ -269,6 +269,11 @@ mod tests {
     }
 
     proptest! {
+        // a fixed seed: the same cases every run
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x5ca1),
+            ..ProptestConfig::default()
+        })]
         #[test]
         fn round_trip(id in 0u16..0x800, data in prop::collection::vec(any::<u8>(), 0..=8), fd in any::<bool>()) {
             let f = if fd {

@@ -14,7 +14,11 @@ fn decode_all(frames: &[CanFrame]) -> Vec<Result<Option<Envelope>>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(2000))]
+    // a fixed seed: the same cases every run
+    #![proptest_config(ProptestConfig {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x2071),
+        ..ProptestConfig::with_cases(2000)
+    })]
 
     #[test]
     fn every_message_round_trips(env in envelope(), mode in mode_strategy(), tid in 0u8..16) {

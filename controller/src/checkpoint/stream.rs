@@ -656,7 +656,11 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
+        // a fixed seed: the same cases every run
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x57e4),
+            ..ProptestConfig::with_cases(64)
+        })]
 
         /// Byte changes anywhere (with the CRC left or made right), truncations and
         /// extensions.
@@ -772,7 +776,11 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(32))]
+        // a fixed seed: the same cases every run
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x57e5),
+            ..ProptestConfig::with_cases(32)
+        })]
 
         /// A compact image changed anywhere (CRC left or made right), or cut, is refused by
         /// the streamed checks exactly as by `verify` and `restore`.
