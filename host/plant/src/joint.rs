@@ -101,19 +101,15 @@ pub struct JointEffects {
     pub creep_tau_s: f64,
 }
 
-/// The constants of a joint's physics step of one length ([`Joint::step_constants`]).
+/// What both kinds of step keep of a joint for many steps of one length: the play
+/// operators' lags, the creep's decay and the joint's range ([`Joint::kept`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepConstants {
-    /// The drive's pressure lag per step: `dt / pressure_tau_s`, at most 1.
-    lag: f64,
+struct Kept {
     /// Each play operator's lag on the way up and on the way down.
     ups: [f64; PLAYS],
     downs: [f64; PLAYS],
     /// The creep's decay over one step (0 without creep).
     creep_decay: f64,
-    /// `wn^2` and `2 zeta wn` of the joint's dynamics.
-    stiffness: f64,
-    damping: f64,
     /// The middle of the joint's range and half its span (radians).
     mid: f64,
     half: f64,
@@ -121,25 +117,27 @@ pub struct StepConstants {
     dt: f64,
 }
 
+/// The constants of a joint's physics step of one length ([`Joint::step_constants`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepConstants {
+    kept: Kept,
+    /// The drive's pressure lag per step: `dt / pressure_tau_s`, at most 1.
+    lag: f64,
+    /// `wn^2` and `2 zeta wn` of the joint's dynamics.
+    stiffness: f64,
+    damping: f64,
+}
+
 /// The constants of a joint's exact step of one length ([`Joint::exact_constants`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExactConstants {
+    kept: Kept,
     /// The drive's pressure lag over one step, `exp(-dt / pressure_tau_s)`.
     decay: f64,
-    /// Each play operator's lag on the way up and on the way down.
-    ups: [f64; PLAYS],
-    downs: [f64; PLAYS],
-    /// The creep's decay over one step.
-    creep_decay: f64,
     /// The unforced joint's transition over one step, `exp(A dt)`.
     phi: [[f64; 2]; 2],
     /// `2 zeta / wn`: the steady lag behind a target moving at unit rate.
     lag_per_rate: f64,
-    /// The middle of the joint's range and half its span (radians).
-    mid: f64,
-    half: f64,
-    /// The step (s).
-    dt: f64,
 }
 
 impl JointEffects {
@@ -317,11 +315,20 @@ impl Joint {
     /// ([`crate::Plant::advance`]). Only `gain`, `offset` and the effects' `width_scale`
     /// and `process_offset` may change between the steps that use them.
     pub fn step_constants(&self, dt: f64) -> StepConstants {
-        let (ups, downs) = self.play_lags();
-        let (mid, half) = self.mid_half();
         let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
         StepConstants {
+            kept: self.kept(dt),
             lag: (dt / self.cfg.pressure_tau_s).min(1.0),
+            stiffness: wn * wn,
+            damping: 2.0 * self.cfg.damping_ratio * wn,
+        }
+    }
+
+    /// What both kinds of step keep for steps of `dt`.
+    fn kept(&self, dt: f64) -> Kept {
+        let (ups, downs) = self.play_lags();
+        let (mid, half) = self.mid_half();
+        Kept {
             ups,
             downs,
             creep_decay: if self.effects.creep_fraction > 0.0 {
@@ -329,32 +336,38 @@ impl Joint {
             } else {
                 0.0
             },
-            stiffness: wn * wn,
-            damping: 2.0 * self.cfg.damping_ratio * wn,
             mid,
             half,
             dt,
         }
     }
 
-    /// One physics step with constants from [`Joint::step_constants`]: each operation as
-    /// [`Joint::step`] does it, so the result is the same bit for bit.
-    pub fn step_with(&mut self, c: &StepConstants) {
-        self.pressure += (self.command - self.pressure) * c.lag;
-        self.update_plays_with(&c.ups, &c.downs);
-        let mut target = self.equilibrium_about(c.mid, c.half);
+    /// The play operators updated to the drive's pressure, and the joint's target there:
+    /// the loop's equilibrium with the creep still to arrive (both kinds of step).
+    fn target_after_plays(&mut self, k: &Kept) -> f64 {
+        self.update_plays_with(&k.ups, &k.downs);
+        let mut target = self.equilibrium_about(k.mid, k.half);
         let fraction = self.effects.creep_fraction;
         if fraction > 0.0 {
             // viscoelastic creep: a fraction of every change of the equilibrium arrives with
             // the time constant creep_tau_s
             self.creep -= fraction * (target - self.eq_last);
             self.eq_last = target;
-            self.creep *= c.creep_decay;
+            self.creep *= k.creep_decay;
             target += self.creep;
         }
+        target
+    }
+
+    /// One physics step with constants from [`Joint::step_constants`]: each operation as
+    /// [`Joint::step`] does it, so the result is the same bit for bit.
+    pub fn step_with(&mut self, c: &StepConstants) {
+        self.pressure += (self.command - self.pressure) * c.lag;
+        let target = self.target_after_plays(&c.kept);
+        let dt = c.kept.dt;
         let acc = c.stiffness * (target - self.angle) - c.damping * self.velocity;
-        self.velocity += acc * c.dt;
-        let d = self.velocity * c.dt;
+        self.velocity += acc * dt;
+        let d = self.velocity * dt;
         self.angle += d;
         self.travel += d.abs();
     }
@@ -362,8 +375,6 @@ impl Joint {
     /// What [`Joint::step_exact`] of `dt` works out once for many steps, as
     /// [`Joint::step_constants`] does for the lab's step.
     pub fn exact_constants(&self, dt: f64) -> ExactConstants {
-        let (ups, downs) = self.play_lags();
-        let (mid, half) = self.mid_half();
         let wn = 2.0 * std::f64::consts::PI * self.cfg.natural_freq_hz;
         let zeta = self.cfg.damping_ratio;
         // the error from the target, e = angle - target, and its rate obey
@@ -387,15 +398,10 @@ impl Joint {
             [-decay * s * wn * wn, decay * (c - sigma * s)],
         ];
         ExactConstants {
+            kept: self.kept(dt),
             decay: (-dt / self.cfg.pressure_tau_s).exp(),
-            ups,
-            downs,
-            creep_decay: (-dt / self.effects.creep_tau_s.max(f64::MIN_POSITIVE)).exp(),
             phi,
             lag_per_rate: 2.0 * zeta / wn,
-            mid,
-            half,
-            dt,
         }
     }
 
@@ -409,20 +415,12 @@ impl Joint {
     /// result is far closer to the lab's 1 ms steps than Euler's rule at the same step.
     pub fn step_exact(&mut self, c: &ExactConstants) {
         // the target now, in the joint's state and the plant's effects of this step
-        let start = self.equilibrium_about(c.mid, c.half) + self.creep;
+        let start = self.equilibrium_about(c.kept.mid, c.kept.half) + self.creep;
         self.pressure = self.command + (self.pressure - self.command) * c.decay;
-        self.update_plays_with(&c.ups, &c.downs);
-        let mut end = self.equilibrium_about(c.mid, c.half);
-        let fraction = self.effects.creep_fraction;
-        if fraction > 0.0 {
-            self.creep -= fraction * (end - self.eq_last);
-            self.eq_last = end;
-            self.creep *= c.creep_decay;
-            end += self.creep;
-        }
+        let end = self.target_after_plays(&c.kept);
         // a target moving at rate s: e = angle - target has the steady lag -2 zeta s / wn,
         // and the rest of (e, e' ) decays as the unforced joint does
-        let rate = (end - start) / c.dt;
+        let rate = (end - start) / c.kept.dt;
         let lag = -c.lag_per_rate * rate;
         let (e, de) = (self.angle - start - lag, self.velocity - rate);
         let e1 = c.phi[0][0] * e + c.phi[0][1] * de;
