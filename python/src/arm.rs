@@ -164,11 +164,7 @@ impl Sim {
                 }
             })?;
         }
-        let mut plant =
-            Plant::new(&Sim::plant_config(&cfg, &options, 0), 0).map_err(|e| e.to_string())?;
-        plant
-            .set_exact_step(options.dt_s)
-            .map_err(|e| format!("dt_s: {e}"))?;
+        let plant = Sim::build_plant(&cfg, &options, 0)?;
         let k = if stage == 1 { 4 } else { 2 };
         Ok(Sim {
             cfg,
@@ -186,6 +182,28 @@ impl Sim {
             moves: 0,
             episode_seed: 0,
         })
+    }
+
+    /// The plant of an episode's `seed`: the options' randomised joints, stepped at the
+    /// options' `dt_s`.
+    fn build_plant(cfg: &SimConfig, options: &Options, seed: u64) -> Result<Plant, String> {
+        let mut plant =
+            Plant::new(&Sim::plant_config(cfg, options, seed), seed).map_err(|e| e.to_string())?;
+        Sim::step_as_the_options_say(&mut plant, options)?;
+        Ok(plant)
+    }
+
+    /// `plant` stepped at the options' `dt_s` (the step is not part of a plant's saved state).
+    fn step_as_the_options_say(plant: &mut Plant, options: &Options) -> Result<(), String> {
+        plant
+            .set_exact_step(options.dt_s)
+            .map_err(|e| format!("dt_s: {e}"))
+    }
+
+    /// An arm restored from its saved state: its plant's step set again from its options.
+    pub(crate) fn restored(mut self) -> Result<Sim, String> {
+        Sim::step_as_the_options_say(&mut self.plant, &self.options)?;
+        Ok(self)
     }
 
     /// The configuration of a plant built from `seed`: the options' randomised joints.
@@ -265,11 +283,7 @@ impl Sim {
     /// A new episode from `seed` (see the module).
     pub fn reset(&mut self, seed: u64) -> Result<(), String> {
         if !(self.options.persistent && self.started) {
-            let cfg = Sim::plant_config(&self.cfg, &self.options, seed);
-            self.plant = Plant::new(&cfg, seed).map_err(|e| e.to_string())?;
-            self.plant
-                .set_exact_step(self.options.dt_s)
-                .map_err(|e| format!("dt_s: {e}"))?;
+            self.plant = Sim::build_plant(&self.cfg, &self.options, seed)?;
             self.plant_seed = seed;
             self.started = true;
         }
@@ -554,13 +568,11 @@ impl Arm {
     /// The arm whose state `state()` gave.
     #[staticmethod]
     fn from_state(state: &[u8]) -> PyResult<Arm> {
-        let mut sim: Sim = postcard::from_bytes(state)
+        let sim: Sim = postcard::from_bytes(state)
             .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
-        // the plant's step is not part of its saved state: the options say it
-        let dt = sim.options.dt_s;
-        sim.plant
-            .set_exact_step(dt)
-            .map_err(|e| PyValueError::new_err(format!("not an arm's state: dt_s: {e}")))?;
+        let sim = sim
+            .restored()
+            .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
         Ok(Arm { sim })
     }
 
