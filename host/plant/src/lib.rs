@@ -232,7 +232,9 @@ impl Plant {
         (sag, load)
     }
 
-    /// One physics step.
+    /// One physics step of the configuration's `dt_s` by Euler's rule (the lab's step),
+    /// whatever [`Plant::set_exact_step`] set: [`Plant::advance`] and [`Plant::settle`] are
+    /// what take the exact steps.
     pub fn step(&mut self) {
         let c = self.step_constants();
         self.step_with(&c);
