@@ -568,10 +568,9 @@ impl Arm {
     /// The arm whose state `state()` gave.
     #[staticmethod]
     fn from_state(state: &[u8]) -> PyResult<Arm> {
-        let sim: Sim = postcard::from_bytes(state)
-            .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
-        let sim = sim
-            .restored()
+        let sim = postcard::from_bytes::<Sim>(state)
+            .map_err(|e| e.to_string())
+            .and_then(Sim::restored)
             .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
         Ok(Arm { sim })
     }

@@ -40,7 +40,7 @@ use trn_protocol::{
     TablesStatus,
 };
 
-use trn_bench::journal::{errors, has_error, heartbeat_problems, moves, reports};
+use trn_bench::journal::{errors, has_error, heartbeat_problems, missing_error, moves, reports};
 pub use trn_bench::report::Check;
 use trn_bench::runner::Runner;
 pub use trn_bench::suite::Patience;
@@ -272,7 +272,7 @@ pub(crate) fn nothing_moved(j: &[Envelope]) -> Vec<String> {
 /// `name`) moved, reported, or was not answered so.
 pub(crate) fn refused_start(j: &[Envelope], code: u16, trial: u32, name: &str) -> Vec<String> {
     let mut p = nothing_moved(j);
-    p.extend(trn_bench::journal::missing_error(j, code, trial, name));
+    p.extend(missing_error(j, code, trial, name));
     if !reports(j).is_empty() {
         p.push(format!("reports {:?}", reports(j)));
     }
