@@ -72,13 +72,16 @@ def main():
     ap.add_argument("--seconds", type=float, default=3.0, help="per measurement")
     ap.add_argument("--rounds", type=int, default=3, help="measurements of each row, taking turns")
     ap.add_argument("--num-envs", type=int, default=2, help="arms of the vector env")
-    ap.add_argument("--fast-dt", type=float, default=0.01, help="dt_s of the fast rows")
+    ap.add_argument("--fast-dt", type=float, nargs="+", default=[0.01, 0.05],
+                    help="dt_s of the fast rows (one pair of rows each)")
     ap.add_argument("--frames", action="store_true", help="also SoftArm-v0 with frames=True")
     ap.add_argument("--out", help="also write the table here (markdown)")
     a = ap.parse_args()
-    s, n, fast = a.seconds, a.num_envs, {"dt_s": a.fast_dt}
+    s, n = a.seconds, a.num_envs
     if s <= 0 or a.rounds < 1 or n < 1:
         ap.error("--seconds must be positive, --rounds and --num-envs at least 1")
+    if not all(0.0001 <= dt <= 0.05 for dt in a.fast_dt):
+        ap.error("--fast-dt: each dt_s between 0.0001 and 0.05 s")
     sid = "trn_softarm/SoftArm-v0"
     # (environment, mode, a function measuring it once)
     plan = []
@@ -92,9 +95,10 @@ def main():
         print("MuJoCo is not installed: Reacher-v5 not measured (pip install 'gymnasium[mujoco]')")
     plan.append(("SoftArm-v0", "single", lambda: single(gym.make(sid), s)))
     plan.append(("SoftArm-v0", f"native x{n}", lambda: vector(gym.make_vec(sid, num_envs=n), s)))
-    plan.append((f"SoftArm-v0 dt_s={a.fast_dt}", "single", lambda: single(gym.make(sid, **fast), s)))
-    plan.append((f"SoftArm-v0 dt_s={a.fast_dt}", f"native x{n}",
-                 lambda: vector(gym.make_vec(sid, num_envs=n, **fast), s)))
+    for dt in a.fast_dt:
+        plan.append((f"SoftArm-v0 dt_s={dt}", "single", lambda dt=dt: single(gym.make(sid, dt_s=dt), s)))
+        plan.append((f"SoftArm-v0 dt_s={dt}", f"native x{n}",
+                     lambda dt=dt: vector(gym.make_vec(sid, num_envs=n, dt_s=dt), s)))
     if a.frames:
         plan.append(("SoftArm-v0 frames=True", "single", lambda: single(gym.make(sid, frames=True), s)))
     runs = [[] for _ in plan]
@@ -132,7 +136,7 @@ def main():
         "| plant | mean | p10 | median | p90 | p99 | worst |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for name, dt in (("SoftArm-v0", None), (f"SoftArm-v0 dt_s={a.fast_dt}", a.fast_dt)):
+    for name, dt in [("SoftArm-v0", None)] + [(f"SoftArm-v0 dt_s={dt}", dt) for dt in a.fast_dt]:
         t = step_times(dt)
         q = np.percentile(t, [10, 50, 90, 99])
         lines.append(f"| {name} | {t.mean():.0f} | {q[0]:.0f} | {q[1]:.0f} | {q[2]:.0f} | {q[3]:.0f} | {t.max():.0f} |")

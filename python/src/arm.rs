@@ -28,7 +28,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use serde::{Deserialize, Serialize};
 use trn_plant::camera::Camera;
 use trn_plant::kinematics::{forward, lights};
-use trn_plant::markers::Tracker;
+use trn_plant::markers::{Fit, Tracker};
 use trn_plant::pixels::PixelVision;
 use trn_plant::targets::{HeldOut, Target};
 use trn_plant::{uniform, Plant, PointStatus, Readings, SimConfig, Vector3};
@@ -193,11 +193,18 @@ impl Sim {
         Ok(plant)
     }
 
-    /// `plant` stepped at the options' `dt_s` (the step is not part of a plant's saved state).
+    /// `plant` stepped at the options' `dt_s` (the step is not part of a plant's saved
+    /// state), its camera processor fitting hidden lights with the analytic Jacobian when
+    /// `dt_s` is set ([`trn_plant::markers::Fit::Analytic`]) and as the lab does otherwise.
     fn step_as_the_options_say(plant: &mut Plant, options: &Options) -> Result<(), String> {
         plant
             .set_exact_step(options.dt_s)
-            .map_err(|e| format!("dt_s: {e}"))
+            .map_err(|e| format!("dt_s: {e}"))?;
+        plant.set_fit(match options.dt_s {
+            Some(_) => Fit::Analytic,
+            None => Fit::Differences,
+        });
+        Ok(())
     }
 
     /// An arm restored from its saved state: its plant's step set again from its options.

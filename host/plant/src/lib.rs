@@ -74,6 +74,10 @@ pub struct Plant {
     /// state: whoever set it sets it again on a restored plant).
     #[serde(skip)]
     exact_step_s: Option<f64>,
+    /// The camera processor's fit of [`Plant::set_fit`] (not part of the plant's saved
+    /// state either).
+    #[serde(skip)]
+    fit: markers::Fit,
 }
 
 /// The coarsest step [`Plant::set_exact_step`] takes (s).
@@ -101,6 +105,7 @@ impl Plant {
             cylinder: None,
             cfg: cfg.clone(),
             exact_step_s: None,
+            fit: markers::Fit::Differences,
         })
     }
 
@@ -122,6 +127,7 @@ impl Plant {
             cylinder: None,
             cfg: self.cfg.clone(),
             exact_step_s: self.exact_step_s,
+            fit: self.fit,
         };
         // the drift and wear of this moment, applied at rest
         twin.step();
@@ -280,6 +286,18 @@ impl Plant {
         }
         self.exact_step_s = step_s;
         Ok(())
+    }
+
+    /// How the camera processor fits the marker body to fill in a hidden light
+    /// ([`markers::Fit`]; the lab's forward differences unless set). A plant restored from
+    /// its saved state has the lab's.
+    pub fn set_fit(&mut self, fit: markers::Fit) {
+        self.fit = fit;
+    }
+
+    /// The fit of [`Plant::set_fit`].
+    pub fn fit(&self) -> markers::Fit {
+        self.fit
     }
 
     /// The step of [`Plant::set_exact_step`], if set.

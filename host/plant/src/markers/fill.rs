@@ -40,7 +40,7 @@ impl Plant {
     /// triangulated): through two triangulated markers; from one, towards the points at the
     /// markers' distance on the rays of the others' single readings; the track; the track
     /// moved onto the ray of a single reading of the centre.
-    fn starts(
+    pub(super) fn starts(
         &self,
         readings: &[Reading],
         tri: &[Option<Vector3<f64>>; 3],
@@ -107,19 +107,13 @@ impl Plant {
         out
     }
 
-    /// Fills in the readings of `lights` (p, q) and `centre` (c) that are not valid and that
-    /// `wanted` asks for (markers 0 p, 1 q, 2 c), from the marker body: valid where the
-    /// readings determine them, estimated where only `track` does (see the module). The
-    /// track becomes the body found. Returns what was done.
-    pub(super) fn fill_markers(
+    /// The valid readings of `lights` (p, q) and `centre` (c) as the fit takes them, and each
+    /// marker triangulated where both cameras saw it.
+    pub(super) fn valid_readings(
         &self,
-        lights: &mut Readings<4>,
-        centre: &mut Readings<2>,
-        wanted: &[usize],
-        tracker: &mut Tracker,
-    ) -> Fill {
-        let prior = tracker.prior(wanted == [2]);
-        let mut fill = Fill::seen(&lights.points, &centre.points);
+        lights: &Readings<4>,
+        centre: &Readings<2>,
+    ) -> (Vec<Reading>, [Option<Vector3<f64>>; 3]) {
         let mut readings = vec![];
         for (k, p) in lights.points.iter().enumerate() {
             if p.status == PointStatus::Valid {
@@ -145,6 +139,24 @@ impl Plant {
             point_of(cams, lights, 1),
             point_of(cams, centre, 0),
         ];
+        (readings, tri)
+    }
+
+    /// Fills in the readings of `lights` (p, q) and `centre` (c) that are not valid and that
+    /// `wanted` asks for (markers 0 p, 1 q, 2 c), from the marker body: valid where the
+    /// readings determine them, estimated where only `track` does (see the module). The
+    /// track becomes the body found. Returns what was done.
+    pub(super) fn fill_markers(
+        &self,
+        lights: &mut Readings<4>,
+        centre: &mut Readings<2>,
+        wanted: &[usize],
+        tracker: &mut Tracker,
+    ) -> Fill {
+        let prior = tracker.prior(wanted == [2]);
+        let mut fill = Fill::seen(&lights.points, &centre.points);
+        let (readings, tri) = self.valid_readings(lights, centre);
+        let cams = &self.cameras;
         if readings.is_empty() {
             fill.no_fit = Some(NoFit::Unseen);
             return fill;
@@ -160,6 +172,7 @@ impl Plant {
             sigma: fit_sigma_px(self.cfg.pixel_noise_px),
             readings,
             prior: None,
+            method: self.fit,
         };
         let tol = tolerance_px(self.cfg.pixel_noise_px);
         let mut found = data.all(&starts);

@@ -2,11 +2,11 @@
 //! the body's five local coordinates, with the trial's track as a weak prior or without,
 //! and the standard error of a hidden marker placed from the body the readings determine.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{SMatrix, SVector, Vector3};
 use rayon::prelude::*;
 
-use super::{Body, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
-use crate::camera::Camera;
+use super::{tangents, Body, Fit, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
+use crate::camera::{Camera, PixelGradient};
 
 /// One valid reading: marker (0 p, 1 q, 2 c), camera, pixel.
 #[derive(Debug, Clone, Copy)]
@@ -23,7 +23,13 @@ pub(super) struct Problem<'a> {
     pub(super) sigma: f64,
     pub(super) readings: Vec<Reading>,
     pub(super) prior: Option<Track>,
+    pub(super) method: Fit,
 }
+
+/// [`Fit::Analytic`] stops after a step whose linearisation promised to lower the cost (noise
+/// units squared, at least 1) by no more than this fraction of it: the steps that follow
+/// would move the body by less than about a millionth of the noise.
+const CONVERGED: f64 = 1e-12;
 
 impl Problem<'_> {
     /// The residuals in noise units (readings, then the prior's rows); `None` when a marker
@@ -51,14 +57,8 @@ impl Problem<'_> {
         Some(())
     }
 
-    /// Residuals and their Jacobian in the body's local coordinates.
-    fn linearised(&self, b: &Body) -> Option<(Vec<f64>, Vec<[f64; 5]>)> {
-        let mut s = Scratch::default();
-        self.linearised_into(b, &mut s)?;
-        Some((s.r, s.jac))
-    }
-
-    /// [`Problem::linearised`] into `s.r` and `s.jac` (`s.rk` the moved bodies' residuals).
+    /// The residuals and their Jacobian in the body's local coordinates by forward
+    /// differences ([`Fit::Differences`]), into `s.r` and `s.jac` (`s.rk` the moved bodies' residuals).
     fn linearised_into(&self, b: &Body, s: &mut Scratch) -> Option<()> {
         const H: f64 = 1e-4;
         self.residuals_into(b, &mut s.r)?;
@@ -75,6 +75,66 @@ impl Problem<'_> {
         Some(())
     }
 
+    /// The residuals and their Jacobian as the fit's [`Fit`] works them out.
+    fn linearise(&self, b: &Body, s: &mut Scratch) -> Option<()> {
+        match self.method {
+            Fit::Differences => self.linearised_into(b, s),
+            Fit::Analytic => self.linearised_analytic_into(b, s),
+        }
+    }
+
+    /// [`Problem::linearised_into`] with the Jacobian differentiated through the body, the
+    /// lenses and the prior ([`Fit::Analytic`]); `s.rk` untouched.
+    fn linearised_analytic_into(&self, b: &Body, s: &mut Scratch) -> Option<()> {
+        s.r.clear();
+        s.jac.clear();
+        let m = b.markers(self.d);
+        let (t1, t2) = tangents(&b.normal);
+        for rd in &self.readings {
+            let (uv, grad) = self.cams[rd.cam].project_with_gradient(&m[rd.marker])?;
+            s.r.extend([(uv.0 - rd.uv.0) / self.sigma, (uv.1 - rd.uv.1) / self.sigma]);
+            for row in self.marker_rows(&grad, rd.marker, &t1, &t2) {
+                s.jac.push(row.map(|x| x / self.sigma));
+            }
+        }
+        if let Some(t) = &self.prior {
+            for i in 0..3 {
+                s.r.push((b.centre[i] - t.centre[i]) / PRIOR_MOVE_MM);
+                let mut row = [0.0; 5];
+                row[i] = 1.0 / PRIOR_MOVE_MM;
+                s.jac.push(row);
+            }
+            if let Some(n) = &t.normal {
+                for i in 0..3 {
+                    s.r.push((b.normal[i] - n[i]) / PRIOR_TURN_RAD);
+                    s.jac.push([
+                        0.0,
+                        0.0,
+                        0.0,
+                        t1[i] / PRIOR_TURN_RAD,
+                        t2[i] / PRIOR_TURN_RAD,
+                    ]);
+                }
+            }
+        }
+        Some(())
+    }
+
+    /// A pixel's `u` and `v` rows of the Jacobian in the body's local coordinates
+    /// ([`Body::moved`]: the centre's three, then the normal's turn about `t1` and `t2`,
+    /// which moves marker `marker` by its offset along the normal times the tangent), from
+    /// the pixel's gradient in the marker's position.
+    fn marker_rows(
+        &self,
+        grad: &PixelGradient,
+        marker: usize,
+        t1: &Vector3<f64>,
+        t2: &Vector3<f64>,
+    ) -> [[f64; 5]; 2] {
+        let along = [self.d, -self.d, 0.0][marker];
+        grad.map(|g| [g.x, g.y, g.z, along * g.dot(t1), along * g.dot(t2)])
+    }
+
     /// Levenberg-Marquardt from `start`; the body and its cost.
     fn solve(&self, start: Body) -> Option<(Body, f64)> {
         let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
@@ -84,12 +144,13 @@ impl Problem<'_> {
         let mut c = cost(&s.rn);
         let mut lambda = 1e-3;
         for _ in 0..40 {
-            self.linearised_into(&b, &mut s)?;
+            self.linearise(&b, &mut s)?;
             let (r, jac) = (&s.r, &s.jac);
             let jtj = normal_matrix(jac);
             let jtr =
                 SVector::<f64, 5>::from_fn(|a, _| jac.iter().zip(r).map(|(j, r)| j[a] * r).sum());
             let mut improved = false;
+            let mut converged = false;
             for _ in 0..8 {
                 let damped = jtj
                     + SMatrix::<f64, 5, 5>::from_diagonal(
@@ -103,6 +164,9 @@ impl Problem<'_> {
                 let next = b.moved(&x);
                 match self.residuals_into(&next, &mut s.rn) {
                     Some(()) if cost(&s.rn) < c => {
+                        // what the step was to gain by the linearisation
+                        let gain = 2.0 * step.dot(&jtr) - step.dot(&(jtj * step));
+                        converged = self.method == Fit::Analytic && gain <= CONVERGED * c.max(1.0);
                         (b, c) = (next, cost(&s.rn));
                         lambda = (lambda / 3.0).max(1e-9);
                         improved = true;
@@ -111,7 +175,7 @@ impl Problem<'_> {
                     _ => lambda *= 10.0,
                 }
             }
-            if !improved {
+            if !improved || converged {
                 break;
             }
         }
@@ -163,10 +227,11 @@ impl Problem<'_> {
         if self.readings.len() < 3 {
             return f64::INFINITY;
         }
-        let Some((_, jac)) = data.linearised(b) else {
+        let mut s = Scratch::default();
+        if data.linearise(b, &mut s).is_none() {
             return f64::INFINITY;
-        };
-        let eig = normal_matrix(&jac).symmetric_eigen();
+        }
+        let eig = normal_matrix(&s.jac).symmetric_eigen();
         let largest = eig.eigenvalues.max();
         if largest.is_nan() || largest <= 0.0 || eig.eigenvalues.min() <= 1e-9 * largest {
             return f64::INFINITY;
@@ -178,7 +243,19 @@ impl Problem<'_> {
             return f64::INFINITY;
         };
         let mut jf = SMatrix::<f64, 2, 5>::zeros();
-        for k in 0..5 {
+        if self.method == Fit::Analytic {
+            let Some((_, grad)) = self.cams[cam].project_with_gradient(&b.markers(self.d)[marker])
+            else {
+                return f64::INFINITY;
+            };
+            let (t1, t2) = tangents(&b.normal);
+            for (i, row) in self.marker_rows(&grad, marker, &t1, &t2).iter().enumerate() {
+                for (k, x) in row.iter().enumerate() {
+                    jf[(i, k)] = *x;
+                }
+            }
+        }
+        for k in (0..5).filter(|_| self.method == Fit::Differences) {
             let mut x = [0.0; 5];
             x[k] = H;
             let Some(uv) = project(&b.moved(&x)) else {
