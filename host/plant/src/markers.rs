@@ -54,9 +54,12 @@ pub enum Fit {
     #[default]
     Differences,
     /// The Jacobian differentiated analytically (one evaluation of the readings instead of
-    /// six), the iterations stopped once a step lowers the cost by less than a millionth of
-    /// the noise squared: the same body to well below a pixel's millionth, in a fraction of
-    /// the instructions. The Python environment's fast physics (`dt_s`) fits with it.
+    /// six); the iterations stopped once a step promises to lower the cost by less than a
+    /// 1e-12 fraction of it, and a start without a prior given up once it is stuck in a
+    /// minimum that leaves a reading beyond the stereo tolerance. The bodies the fill takes
+    /// are the lab fit's to about 1e-4 px (its differences stop a little short of the
+    /// minimum), in about half the instructions. The Python environment's fast physics
+    /// (`dt_s`) fits with it.
     Analytic,
 }
 

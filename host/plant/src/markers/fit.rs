@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::{tangents, Body, Fit, Track, PRIOR_MOVE_MM, PRIOR_TURN_RAD};
 use crate::camera::{Camera, PixelGradient};
+use crate::stereo::tolerance_px;
 
 /// One valid reading: marker (0 p, 1 q, 2 c), camera, pixel.
 #[derive(Debug, Clone, Copy)]
@@ -30,6 +31,16 @@ pub(super) struct Problem<'a> {
 /// units squared, at least 1) by no more than this fraction of it: the steps that follow
 /// would move the body by less than about a millionth of the noise.
 const CONVERGED: f64 = 1e-12;
+
+/// [`Fit::Analytic`] leaves a start fitted without a prior once it is stuck in a minimum
+/// that explains nothing: its cost above this many times that of every reading off by the
+/// stereo tolerance (no such body is one the fill takes), and its last step lowering it by
+/// less than [`STUCK_GAIN`] of it. The lab's fit follows such a start to its minimum, in
+/// about twice the iterations of one that explains the readings.
+const STUCK_COST: f64 = 2.0;
+
+/// See [`STUCK_COST`].
+const STUCK_GAIN: f64 = 0.1;
 
 impl Problem<'_> {
     /// The residuals in noise units (readings, then the prior's rows); `None` when a marker
@@ -135,6 +146,13 @@ impl Problem<'_> {
         grad.map(|g| [g.x, g.y, g.z, along * g.dot(t1), along * g.dot(t2)])
     }
 
+    /// The cost of a body with every reading off by the stereo tolerance in both
+    /// coordinates: a body that costs more leaves at least one reading beyond it.
+    fn explaining_cost(&self) -> f64 {
+        let k = tolerance_px(self.sigma) / self.sigma;
+        2.0 * self.readings.len() as f64 * k * k
+    }
+
     /// Levenberg-Marquardt from `start`; the body and its cost.
     fn solve(&self, start: Body) -> Option<(Body, f64)> {
         let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
@@ -166,8 +184,13 @@ impl Problem<'_> {
                     Some(()) if cost(&s.rn) < c => {
                         // what the step was to gain by the linearisation
                         let gain = 2.0 * step.dot(&jtr) - step.dot(&(jtj * step));
-                        converged = self.method == Fit::Analytic && gain <= CONVERGED * c.max(1.0);
-                        (b, c) = (next, cost(&s.rn));
+                        let (before, after) = (c, cost(&s.rn));
+                        converged = self.method == Fit::Analytic
+                            && (gain <= CONVERGED * before.max(1.0)
+                                || (self.prior.is_none()
+                                    && after > STUCK_COST * self.explaining_cost()
+                                    && before - after < STUCK_GAIN * before));
+                        (b, c) = (next, after);
                         lambda = (lambda / 3.0).max(1e-9);
                         improved = true;
                         break;
