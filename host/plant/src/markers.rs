@@ -54,12 +54,13 @@ pub enum Fit {
     #[default]
     Differences,
     /// The Jacobian differentiated analytically (one evaluation of the readings instead of
-    /// six); the iterations stopped once a step promises to lower the cost by less than a
-    /// 1e-12 fraction of it, and a start without a prior given up once it is stuck in a
-    /// minimum that leaves a reading beyond the stereo tolerance. The bodies the fill takes
+    /// six) and each step solved by Cholesky; starts within a few millimetres of one another
+    /// fitted once; the iterations stopped once a step promises to lower the cost by less
+    /// than a 1e-12 fraction of it, and a start without a prior given up once it is stuck in
+    /// a minimum that leaves a reading beyond the stereo tolerance. The bodies the fill takes
     /// are the lab fit's to about 1e-4 px (its differences stop a little short of the
-    /// minimum), in about half the instructions. The Python environment's fast physics
-    /// (`dt_s`) fits with it.
+    /// minimum), in a fraction of the instructions (docs/python/step-cost.md and
+    /// fit-agreement.md). The Python environment's fast physics (`dt_s`) fits with it.
     Analytic,
 }
 

@@ -3,7 +3,7 @@
 //! gripper's lights and centre light that fill in, and the tracks the trial's targets give.
 
 use super::fit::{Problem, Reading};
-use super::{Body, Fill, NoFit, Track, Tracker, FAR_MOVES, PRIOR_MOVE_MM};
+use super::{Body, Fill, Fit, NoFit, Track, Tracker, FAR_MOVES, PRIOR_MOVE_MM};
 use crate::geometry::unit;
 use crate::stereo::{point_of, seen, tolerance_px, RECAPTURES};
 use crate::{PixelReading, Plant, PointStatus, Readings, Vector3};
@@ -34,6 +34,30 @@ fn ray_sphere(o: &Vector3<f64>, u: &Vector3<f64>, s: &Vector3<f64>, r: f64) -> V
         .map(|t| o + u * t)
         .collect()
 }
+
+/// Starts that lie within [`SAME_START_MM`] and [`SAME_START_RAD`] of one kept before them
+/// are one start ([`Fit::Analytic`]): two cameras' rays of one marker meet the sphere about
+/// another a noise apart, and fits from starts this close end at the same body (a mirror
+/// body lies a marker's distance away). The lab's fit solves every start.
+fn distinct(starts: Vec<Body>) -> Vec<Body> {
+    let mut kept: Vec<Body> = Vec::with_capacity(starts.len());
+    for s in starts {
+        let same = |k: &Body| {
+            (k.centre - s.centre).norm() <= SAME_START_MM
+                && (k.normal - s.normal).norm() <= SAME_START_RAD
+        };
+        if !kept.iter().any(same) {
+            kept.push(s);
+        }
+    }
+    kept
+}
+
+/// See [`distinct`].
+const SAME_START_MM: f64 = 10.0;
+
+/// See [`distinct`].
+const SAME_START_RAD: f64 = 0.1;
 
 impl Plant {
     /// Starts for a fit of the body to `readings` (`tri`: the markers seen by both cameras,
@@ -161,7 +185,10 @@ impl Plant {
             fill.no_fit = Some(NoFit::Unseen);
             return fill;
         }
-        let starts = self.starts(&readings, &tri, tracker.last.or(prior).as_ref());
+        let mut starts = self.starts(&readings, &tri, tracker.last.or(prior).as_ref());
+        if self.fit == Fit::Analytic {
+            starts = distinct(starts);
+        }
         if starts.is_empty() {
             fill.no_fit = Some(NoFit::NoStart);
             return fill;
