@@ -145,9 +145,18 @@ fn row(trials: usize, faults: &str, seed: u64, bitrate: u32) -> Row {
 fn what_differs(a: &Report, b: &Report) -> String {
     let mut out = Vec::new();
     if a.failed_trials != b.failed_trials {
+        // the first failure of each run, with its reason: what to look into
+        let first = |r: &Report| {
+            r.failures.first().map_or("none".to_string(), |f| {
+                format!("trial {} ({}): {}", f.trial, f.phase, f.reason)
+            })
+        };
         out.push(format!(
-            "failed trials {} clean, {} lossy",
-            a.failed_trials, b.failed_trials
+            "failed trials {} clean, {} lossy; the first clean {}, the first lossy {}",
+            a.failed_trials,
+            b.failed_trials,
+            first(a),
+            first(b)
         ));
     }
     if a.aborted_trials != b.aborted_trials {
