@@ -295,11 +295,6 @@ impl Plant {
         self.fit = fit;
     }
 
-    /// The fit of [`Plant::set_fit`].
-    pub fn fit(&self) -> markers::Fit {
-        self.fit
-    }
-
     /// The step of [`Plant::set_exact_step`], if set.
     pub fn exact_step(&self) -> Option<f64> {
         self.exact_step_s

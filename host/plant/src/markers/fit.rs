@@ -272,26 +272,30 @@ impl Problem<'_> {
             return f64::INFINITY;
         };
         let mut jf = SMatrix::<f64, 2, 5>::zeros();
-        if self.method == Fit::Analytic {
-            let Some((_, grad)) = self.cams[cam].project_with_gradient(&b.markers(self.d)[marker])
-            else {
-                return f64::INFINITY;
-            };
-            let (t1, t2) = tangents(&b.normal);
-            for (i, row) in self.marker_rows(&grad, marker, &t1, &t2).iter().enumerate() {
-                for (k, x) in row.iter().enumerate() {
-                    jf[(i, k)] = *x;
+        match self.method {
+            Fit::Analytic => {
+                let marker_at = b.markers(self.d)[marker];
+                let Some((_, grad)) = self.cams[cam].project_with_gradient(&marker_at) else {
+                    return f64::INFINITY;
+                };
+                let (t1, t2) = tangents(&b.normal);
+                for (i, row) in self.marker_rows(&grad, marker, &t1, &t2).iter().enumerate() {
+                    for (k, x) in row.iter().enumerate() {
+                        jf[(i, k)] = *x;
+                    }
                 }
             }
-        }
-        for k in (0..5).filter(|_| self.method == Fit::Differences) {
-            let mut x = [0.0; 5];
-            x[k] = H;
-            let Some(uv) = project(&b.moved(&x)) else {
-                return f64::INFINITY;
-            };
-            jf[(0, k)] = (uv.0 - at.0) / H;
-            jf[(1, k)] = (uv.1 - at.1) / H;
+            Fit::Differences => {
+                for k in 0..5 {
+                    let mut x = [0.0; 5];
+                    x[k] = H;
+                    let Some(uv) = project(&b.moved(&x)) else {
+                        return f64::INFINITY;
+                    };
+                    jf[(0, k)] = (uv.0 - at.0) / H;
+                    jf[(1, k)] = (uv.1 - at.1) / H;
+                }
+            }
         }
         // the residuals are in noise units: the covariance is sigma^2 (J^T J)^-1
         let c = jf * cov * jf.transpose() * (self.sigma * self.sigma);
