@@ -21,7 +21,7 @@
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::{PyByteArray, PyBytes, PyDict};
 use pyo3::IntoPyObjectExt;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -281,6 +281,18 @@ impl Sim {
         (&self.lights, &self.status, self.target_of().0)
     }
 
+    /// The last reading as the environment observes it, appended to `obs`: pixels and
+    /// target as float32, each clipped to `bounds` (a NaN stays NaN, as numpy's
+    /// `maximum`/`minimum` leave it), status codes as bytes.
+    pub(crate) fn observation_into(&self, bounds: &Bounds, obs: &mut ObservationBytes) {
+        let (lights, status, target) = self.observation();
+        obs.lights
+            .extend(bounds.clip(lights).flat_map(f32::to_ne_bytes));
+        obs.status.extend_from_slice(status);
+        obs.target
+            .extend(bounds.clip(&target).flat_map(f32::to_ne_bytes));
+    }
+
     /// Whether `reset(seed)` gives the same arm whatever this one went through (a
     /// persistent arm carries its plant over instead).
     pub(crate) fn resets_afresh(&self) -> bool {
@@ -422,6 +434,55 @@ impl Sim {
     }
 }
 
+/// The box an observed point is clipped to: `(x low, y low, x high, y high)`, pixels.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Bounds(pub(crate) [f32; 4]);
+
+impl Bounds {
+    /// `xy` (x and y of each point in turn) as float32, each clipped to its axis' range.
+    fn clip<'a>(&'a self, xy: &'a [f64]) -> impl Iterator<Item = f32> + 'a {
+        let [x0, y0, x1, y1] = self.0;
+        xy.iter().enumerate().map(move |(k, &v)| {
+            let (lo, hi) = if k % 2 == 0 { (x0, x1) } else { (y0, y1) };
+            let v = v as f32;
+            // numpy's maximum then minimum: a NaN is kept
+            if v < lo {
+                lo
+            } else if v > hi {
+                hi
+            } else {
+                v
+            }
+        })
+    }
+}
+
+/// Pixels, status codes and targets as Python byte arrays (see [`ObservationBytes`]).
+pub(crate) type ObservationArrays<'py> = (
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+);
+
+/// Observations as native-endian bytes, arm after arm: pixels (float32), status codes
+/// (uint8), targets (float32); numpy's `frombuffer` makes the arrays of them.
+#[derive(Default)]
+pub(crate) struct ObservationBytes {
+    pub(crate) lights: Vec<u8>,
+    pub(crate) status: Vec<u8>,
+    pub(crate) target: Vec<u8>,
+}
+
+impl ObservationBytes {
+    pub(crate) fn into_py<'py>(self, py: Python<'py>) -> ObservationArrays<'py> {
+        (
+            PyByteArray::new(py, &self.lights),
+            PyByteArray::new(py, &self.status),
+            PyByteArray::new(py, &self.target),
+        )
+    }
+}
+
 /// A value of an arm's info (its Python type in `Arm.info()`).
 pub(crate) enum InfoValue {
     /// A float.
@@ -540,6 +601,19 @@ impl Arm {
     fn observation(&self) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
         let (xy, status, target) = self.sim.observation();
         (xy.to_vec(), status.to_vec(), target)
+    }
+
+    /// The last reading as the environment observes it: `(pixels, status codes, target)`
+    /// as native-endian bytes (float32, uint8, float32), pixels and target clipped to
+    /// `bounds` = `(x low, y low, x high, y high)`.
+    fn observation_clipped<'py>(
+        &self,
+        py: Python<'py>,
+        bounds: [f32; 4],
+    ) -> ObservationArrays<'py> {
+        let mut obs = ObservationBytes::default();
+        self.sim.observation_into(&Bounds(bounds), &mut obs);
+        obs.into_py(py)
     }
 
     /// The cameras' frames of the arm's lights now (see `Sim::frames`): `(width, height,

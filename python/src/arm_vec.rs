@@ -1,6 +1,6 @@
-//! [`ArmVec`]: `n` simulated arms stepped in one call, on rayon's pool with the GIL
-//! released (the native vector environment's core), with each arm's next episode built
-//! ahead of its reset on a thread of the lowest priority.
+//! [`ArmVec`]: `n` simulated arms stepped in one call by a [`Crew`] with the GIL released
+//! (the native vector environment's core), with each arm's next episode built ahead of its
+//! reset on a thread of the lowest priority.
 //!
 //! An episode's reset is the costliest thing an arm does (the plant built, the target's twin
 //! moved along its path, the start move: about four moves' time), and a vector step waits
@@ -13,27 +13,31 @@
 //! bit: a reset that does not carry the plant over keeps nothing of the episode before.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyByteArray, PyDict, PyList};
-use rayon::prelude::*;
+use pyo3::types::{PyByteArray, PyBytes, PyDict};
 
-use crate::arm::{resolve, value_err, Options, Sim};
+use crate::arm::{resolve, value_err, Bounds, ObservationArrays, ObservationBytes, Options, Sim};
+use trn_crew::Crew;
 
-/// `n` arms of one configuration stepped together: every call runs the arms on a thread
-/// pool with the GIL released (rayon's, as many threads as cores). Arm `i` is reset or
-/// stepped exactly as an [`crate::arm::Arm`] would be with the same seeds and actions.
+/// `n` arms of one configuration stepped together: every call runs the arms on a [`Crew`]
+/// (the caller and a thread for each other core) with the GIL released. Arm `i` is reset
+/// or stepped exactly as an [`crate::arm::Arm`] would be with the same seeds and actions.
 #[pyclass(module = "trn_softarm._native")]
 pub struct ArmVec {
-    sims: Vec<Sim>,
+    /// Each arm, locked by the thread that runs it (never contended: a call's threads take
+    /// distinct arms, and Python's borrow of the `ArmVec` keeps calls apart).
+    sims: Arc<Vec<Mutex<Sim>>>,
+    crew: Crew,
     /// An arm as built, not reset: what each episode built ahead starts from.
     blank: Sim,
     /// Each arm's next episode, being built (see the module).
     ahead: Vec<Option<Ahead>>,
     /// Resets that took an episode built ahead.
-    taken: AtomicU64,
+    taken: Arc<AtomicU64>,
 }
 
 /// An episode built ahead: its seed and the thread building it.
@@ -49,25 +53,9 @@ enum Work {
     Step(Vec<f32>),
 }
 
-/// Runs `f` on every arm whose `work` is `Some`, in parallel, and returns the first error
-/// (`work` has one entry an arm).
-fn run_all<W: Send>(
-    py: Python<'_>,
-    sims: &mut [Sim],
-    work: Vec<Option<W>>,
-    f: impl Fn(&mut Sim, W) -> Result<(), String> + Sync,
-) -> PyResult<()> {
-    py.detach(|| {
-        sims.par_iter_mut()
-            .zip(work.into_par_iter())
-            .map(|(s, w)| match w {
-                Some(w) => f(s, w),
-                None => Ok(()),
-            })
-            .collect::<Result<Vec<()>, String>>()
-    })
-    .map(|_| ())
-    .map_err(value_err)
+/// Arm `i`, locked (a lock an arm's panic left poisoned still holds the arm).
+fn arm(sims: &[Mutex<Sim>], i: usize) -> MutexGuard<'_, Sim> {
+    sims[i].lock().unwrap_or_else(|p| p.into_inner())
 }
 
 /// Lowers the calling thread's priority to the least (nice 19; on Linux a thread's nice
@@ -121,10 +109,11 @@ impl ArmVec {
         };
         let sim = Sim::new(resolve(config)?, stage, options).map_err(value_err)?;
         Ok(ArmVec {
-            sims: vec![sim.clone(); n],
+            sims: Arc::new((0..n).map(|_| Mutex::new(sim.clone())).collect()),
+            crew: Crew::for_jobs(n),
             blank: sim,
             ahead: (0..n).map(|_| None).collect(),
-            taken: AtomicU64::new(0),
+            taken: Arc::new(AtomicU64::new(0)),
         })
     }
 
@@ -150,7 +139,7 @@ impl ArmVec {
                 actions.len()
             )));
         }
-        let work: Vec<Option<Work>> = seeds
+        let work: Vec<Mutex<Option<Work>>> = seeds
             .into_iter()
             .zip(actions)
             .enumerate()
@@ -165,12 +154,27 @@ impl ArmVec {
                 (None, Some(a)) => Some(Work::Step(a)),
                 (None, None) => None,
             })
+            .map(Mutex::new)
             .collect();
-        let taken = &self.taken;
-        run_all(py, &mut self.sims, work, |sim, w| match w {
-            Work::Reset(seed, ahead) => reset(sim, seed, ahead, taken),
-            Work::Step(a) => sim.step(&a),
-        })
+        let (sims, taken) = (self.sims.clone(), self.taken.clone());
+        let n = sims.len();
+        let task = Arc::new(move |i: usize| {
+            let w = work[i].lock().unwrap_or_else(|p| p.into_inner()).take();
+            match w {
+                Some(Work::Reset(seed, ahead)) => reset(&mut arm(&sims, i), seed, ahead, &taken),
+                Some(Work::Step(a)) => arm(&sims, i).step(&a),
+                None => Ok(()),
+            }
+        });
+        let crew = &mut self.crew;
+        py.detach(|| crew.run(n, task)).map_err(value_err)
+    }
+
+    /// Threads that run the arms beside the caller's (one for each other core, at most one
+    /// for each other arm).
+    #[getter]
+    fn crew_threads(&self) -> usize {
+        self.crew.threads()
     }
 
     /// Starts building arm `i`'s next episode, the one `seed` gives, on a thread of its own
@@ -213,71 +217,84 @@ impl ArmVec {
         self.taken.load(Ordering::Relaxed)
     }
 
-    /// Every arm's last reading, as `Arm.observation()` gives one, concatenated as
-    /// native-endian bytes: pixels (float32), status codes (uint8), targets (float32). One call for the vector
-    /// environment's step, which makes its observation with numpy's `frombuffer`.
-    fn observation_batch<'py>(
+    /// Every arm's last reading as `Arm.observation_clipped(bounds)` gives one, arm after
+    /// arm in each of the three. One call for the vector environment's step, which makes
+    /// its observation with numpy's `frombuffer`.
+    fn observation_batch<'py>(&self, py: Python<'py>, bounds: [f32; 4]) -> ObservationArrays<'py> {
+        let mut obs = ObservationBytes::default();
+        for i in 0..self.sims.len() {
+            arm(&self.sims, i).observation_into(&Bounds(bounds), &mut obs);
+        }
+        obs.into_py(py)
+    }
+
+    /// The info's keys in order, each with its kind and the values it has an arm: `(key,
+    /// kind, values)`, the kinds as [`ArmVec::info_batch`] lays them out. The same for
+    /// every step of an `ArmVec`.
+    fn info_layout(&self) -> Vec<(&'static str, &'static str, usize)> {
+        use crate::arm::InfoValue::*;
+        arm(&self.sims, 0)
+            .info_values()
+            .into_iter()
+            .map(|(key, v)| match v {
+                Scalar(_) => (key, "float", 1),
+                Maybe(_) => (key, "maybe", 1),
+                Floats(v) => (key, "floats", v.len()),
+                Points(v) => (key, "points", v.len()),
+                Flags(v) => (key, "flags", v.len()),
+                Count(_) => (key, "count", 1),
+            })
+            .collect()
+    }
+
+    /// Every arm's info, in three native-endian buffers and the Nones: `(floats, flags,
+    /// counts, first_none)`. Key by key in the info's order (`info_layout`), each key's
+    /// values arm after arm go to the buffer of its kind: `"float"`, `"floats"`, `"points"`
+    /// and `"maybe"` (NaN for None) to `floats` (float64), `"flags"` to `flags` (bool),
+    /// `"count"` to `counts` (int64); `first_none` has a byte a key, 1 where the first arm's
+    /// value is None. One call for the vector environment's step, which makes Gymnasium's
+    /// batched infos of it with numpy's `frombuffer` (`trn_softarm.env._InfoBatch`).
+    fn info_batch<'py>(
         &self,
         py: Python<'py>,
     ) -> (
         Bound<'py, PyByteArray>,
         Bound<'py, PyByteArray>,
         Bound<'py, PyByteArray>,
+        Bound<'py, PyBytes>,
     ) {
-        let (mut xy, mut st, mut tg) = (Vec::new(), Vec::new(), Vec::new());
-        for s in &self.sims {
-            let (lights, status, target) = s.observation();
-            xy.extend(lights.iter().flat_map(|&x| (x as f32).to_ne_bytes()));
-            st.extend_from_slice(status);
-            tg.extend(target.iter().flat_map(|&x| (x as f32).to_ne_bytes()));
-        }
-        (
-            PyByteArray::new(py, &xy),
-            PyByteArray::new(py, &st),
-            PyByteArray::new(py, &tg),
-        )
-    }
-
-    /// Every arm's info, key by key in the info's order: `(key, kind, data, first_none)`,
-    /// `data` the arms' values one after the other as native-endian bytes (`"float"`,
-    /// `"floats"`, `"points"`: float64, `"maybe"`: float64 with NaN for None, `"flags"`:
-    /// bool, `"count"`: int64), `first_none` whether the first arm's value is None. One
-    /// call for the vector environment's step, which makes Gymnasium's batched infos of
-    /// it with numpy's `frombuffer` (`trn_softarm.env._Layout.batch_infos`).
-    fn info_batch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         use crate::arm::InfoValue::*;
-        let arms: Vec<_> = self.sims.iter().map(|s| s.info_values()).collect();
-        let out = PyList::empty(py);
-        for (k, (key, first)) in arms[0].iter().enumerate() {
-            let kind = match first {
-                Scalar(_) => "float",
-                Maybe(_) => "maybe",
-                Floats(_) => "floats",
-                Points(_) => "points",
-                Flags(_) => "flags",
-                Count(_) => "count",
-            };
-            let mut data = Vec::new();
+        let arms: Vec<_> = (0..self.sims.len())
+            .map(|i| arm(&self.sims, i).info_values())
+            .collect();
+        let (mut floats, mut flags, mut counts, mut nones) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (k, (_, first)) in arms[0].iter().enumerate() {
             for arm in &arms {
                 match &arm[k].1 {
-                    Scalar(x) => data.extend(x.to_ne_bytes()),
-                    Maybe(x) => data.extend(x.unwrap_or(f64::NAN).to_ne_bytes()),
-                    Floats(v) | Points(v) => v.iter().for_each(|x| data.extend(x.to_ne_bytes())),
-                    Flags(v) => data.extend(v.iter().map(|&b| u8::from(b))),
-                    Count(n) => data.extend((*n as i64).to_ne_bytes()),
+                    Scalar(x) => floats.extend(x.to_ne_bytes()),
+                    Maybe(x) => floats.extend(x.unwrap_or(f64::NAN).to_ne_bytes()),
+                    Floats(v) | Points(v) => v.iter().for_each(|x| floats.extend(x.to_ne_bytes())),
+                    Flags(v) => flags.extend(v.iter().map(|&b| u8::from(b))),
+                    Count(n) => counts.extend((*n as i64).to_ne_bytes()),
                 }
             }
-            let first_none = matches!(first, Maybe(None));
-            out.append((*key, kind, PyByteArray::new(py, &data), first_none))?;
+            nones.push(u8::from(matches!(first, Maybe(None))));
         }
-        Ok(out)
+        (
+            PyByteArray::new(py, &floats),
+            PyByteArray::new(py, &flags),
+            PyByteArray::new(py, &counts),
+            PyBytes::new(py, &nones),
+        )
     }
 
     /// Arm `i`'s info, as `Arm.info()` gives it.
     fn info<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyDict>> {
-        self.sims
-            .get(i)
-            .ok_or_else(|| PyValueError::new_err(format!("no arm {i}")))?
-            .info(py)
+        if i >= self.sims.len() {
+            return Err(PyValueError::new_err(format!("no arm {i}")));
+        }
+        let sim = arm(&self.sims, i);
+        sim.info(py)
     }
 }

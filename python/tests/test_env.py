@@ -189,20 +189,24 @@ def test_batched_infos_are_gymnasiums_for_any_first_arm():
         {"error_px": None, "error_true_px": 0.5, "moves": 3, "pressures": [0.25, -1.0], "lights_true_in_view": [True]},
         {"error_px": 2.0, "error_true_px": None, "moves": 4, "pressures": [0.5, 1.0], "lights_true_in_view": [False]},
     ]
-    f64 = lambda v: bytearray(np.array(v, dtype=np.float64).tobytes())
-    batch = [
-        ("error_px", "maybe", f64([np.nan, 2.0]), True),
-        ("error_true_px", "maybe", f64([0.5, np.nan]), False),
-        ("moves", "count", bytearray(np.array([3, 4], dtype=np.int64).tobytes()), False),
-        ("pressures", "floats", f64([0.25, -1.0, 0.5, 1.0]), False),
-        ("lights_true_in_view", "flags", bytearray([1, 0]), False),
+    # ArmVec.info_layout() and info_batch() of these: each key's values arm after arm in
+    # the buffer of its kind, a None NaN, and whether the first arm's value is None
+    layout = [
+        ("error_px", "maybe", 1),
+        ("error_true_px", "maybe", 1),
+        ("moves", "count", 1),
+        ("pressures", "floats", 2),
+        ("lights_true_in_view", "flags", 1),
     ]
+    floats = bytearray(np.array([np.nan, 2.0, 0.5, np.nan, 0.25, -1.0, 0.5, 1.0], dtype=np.float64).tobytes())
+    counts = bytearray(np.array([3, 4], dtype=np.int64).tobytes())
+    batch = (floats, bytearray([1, 0]), counts, bytes([1, 0, 0, 0, 0]))
     envs = SoftArmVectorEnv(num_envs=2)
     expected = {}
     for i, info in enumerate(arms):
         info = {k: np.asarray(v) if isinstance(v, list) else v for k, v in info.items()}
         expected = envs._add_info(expected, info, i)
-    got = trn_softarm.env._Layout.batch_infos(batch, 2)
+    got, raw = trn_softarm.env._InfoBatch(lambda: layout, 2)(*batch)
     assert list(got) == list(expected)
     for key, want in expected.items():
         have = got[key]
@@ -212,6 +216,7 @@ def test_batched_infos_are_gymnasiums_for_any_first_arm():
         else:
             assert np.array_equal(have, want, equal_nan=want.dtype.kind == "f"), key
     assert got["error_px"].tolist() == [None, 2.0] and np.isnan(got["error_true_px"][1])
+    assert np.isnan(raw[0]) and raw[1] == 2.0
 
 
 def test_a_bad_action_is_a_value_error():
@@ -353,3 +358,32 @@ def test_camera_frames_show_the_lights_where_they_are_read(stage):
         gym.make_vec(trn_softarm.ENV_ID, num_envs=2, frames=True)
     with pytest.raises(ValueError, match="frame_scale"):
         SoftArmEnv(frames=True, frame_scale=0)
+
+
+def test_the_native_clip_is_numpys():
+    # the observation's pixels and target clipped natively to bounds that cut through the
+    # image on every side (so that most readings are clipped one way or the other), against
+    # numpy's maximum then minimum of the unclipped reading: the same float32 bits, a NaN
+    # kept (fails with an axis' bounds swapped, or a NaN clipped as Rust's f32::max would)
+    arm = Arm("realistic", 1, 0.05)
+    arm.reset(3)
+    rng = np.random.default_rng(4)
+    w, h = arm.image_size
+    bounds = [w * 0.4, h * 0.3, w * 0.6, h * 0.7]
+    low = np.array(bounds[:2], dtype=np.float32)
+    high = np.array(bounds[2:], dtype=np.float32)
+    clipped = 0
+    for _ in range(40):
+        arm.step(rng.uniform(-1, 1, 5).tolist())
+        lights, status, target = arm.observation()
+        got = arm.observation_clipped(bounds)
+        for raw, native in ((lights, got[0]), (target, got[2])):
+            want = np.minimum(np.maximum(np.array(raw, dtype=np.float32).reshape(-1, 2), low), high)
+            have = np.frombuffer(native, dtype=np.float32).reshape(-1, 2)
+            assert np.array_equal(have, want, equal_nan=True)
+            clipped += int(np.sum(have != np.array(raw, dtype=np.float32).reshape(-1, 2)))
+        assert bytes(got[1]) == bytes(status)
+    assert clipped > 100
+    # an arm not yet reset has no target: NaN, kept so by the clip
+    target = np.frombuffer(Arm("realistic", 1).observation_clipped(bounds)[2], dtype=np.float32)
+    assert target.size == 8 and np.isnan(target).all()

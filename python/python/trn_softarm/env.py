@@ -60,6 +60,7 @@ class _Layout:
         w, h = image_size
         # readings lie in the image; a centroid's noise may carry one a little beyond it
         margin = 16.0
+        self.bounds = [-margin, -margin, w + margin, h + margin]
         self.low = np.tile(np.array([-margin, -margin], dtype=np.float32), (self.n, 1))
         self.high = np.tile(np.array([w + margin, h + margin], dtype=np.float32), (self.n, 1))
         self.observation_space = spaces.Dict(
@@ -74,20 +75,16 @@ class _Layout:
         self.tolerance_px = float(tolerance_px)
         self.max_moves = int(max_moves)
 
-    def obs(self, lights, status, target):
-        """An observation from the native lists (``Arm.observation()``)."""
+    def obs(self, lights, status, target, arms=None):
+        """An observation from the native bytes: one arm's (``Arm.observation_clipped``) or,
+        ``arms`` given, that many stacked (``ArmVec.observation_batch``); pixels and target
+        already clipped to the space's bounds (``bounds``), the arrays writable."""
+        shape = (self.n, 2) if arms is None else (arms, self.n, 2)
         return {
-            "lights": self._clipped(lights),
-            "status": np.frombuffer(status, dtype=np.uint8).astype(np.int64),
-            "target": self._clipped(target),
+            "lights": np.frombuffer(lights, dtype=np.float32).reshape(shape),
+            "status": np.frombuffer(status, dtype=np.uint8).astype(np.int64).reshape(shape[:-1]),
+            "target": np.frombuffer(target, dtype=np.float32).reshape(shape),
         }
-
-    def _clipped(self, v):
-        # clipped in place by two ufuncs: np.clip's Python wrapper costs more than the clip
-        x = np.array(v, dtype=np.float32).reshape(self.n, 2)
-        np.maximum(x, self.low, out=x)
-        np.minimum(x, self.high, out=x)
-        return x
 
     # the info's keys whose values are points (x, y)
     POINTS = ("lights_true", "target_true")
@@ -113,46 +110,57 @@ class _Layout:
         truncated = not terminated and moves >= self.max_moves
         return reward, terminated, truncated
 
-    def batch_obs(self, lights, status, target, n):
-        """The observation of ``n`` arms, stacked, from the native
-        ``ArmVec.observation_batch()``: each arm's as ``obs`` makes it."""
-        shape = (n, self.n, 2)
+    def outcomes(self, err, moves):
+        """``outcome_of`` of many arms' moves at once: ``err`` float64 with NaN where a
+        reading is not valid, ``moves`` the episodes' move counts; three arrays."""
+        valid = ~np.isnan(err)
+        terminated = valid & (err <= self.tolerance_px)
+        return np.where(valid, -err, -self.diagonal), terminated, ~terminated & (moves >= self.max_moves)
 
-        def clip(data):
-            v = np.frombuffer(data, dtype=np.float32).reshape(shape)
-            return np.minimum(np.maximum(v, self.low, out=v), self.high, out=v)
 
-        return {
-            "lights": clip(lights),
-            "status": np.frombuffer(status, dtype=np.uint8).astype(np.int64).reshape(shape[:-1]),
-            "target": clip(target),
-        }
+class _InfoBatch:
+    """The infos of ``n`` arms as Gymnasium's vector environments give them
+    (``VectorEnv._add_info`` for each arm in turn, every arm present: each key an array over
+    the arms of the first arm's type, a None among floats NaN, and its mask ``_key``), from
+    the native ``ArmVec.info_batch()``: an array a buffer, each key's array a slice of its
+    buffer, laid out by ``ArmVec.info_layout()``."""
 
-    @staticmethod
-    def batch_infos(batch, n):
-        """The infos of ``n`` arms as Gymnasium's vector environments give them
-        (``VectorEnv._add_info`` for each arm in turn, every arm present: each key an
-        array over the arms of the first arm's type, a None among floats NaN, and its mask
-        ``_key``), from the native ``ArmVec.info_batch()``: one array a key from its bytes."""
+    def __init__(self, layout, n):
+        """``layout``: a function that gives ``ArmVec.info_layout()`` (read again whenever
+        the buffers' sizes are not the plan's: an arm not yet reset has no lights)."""
+        self.layout, self.n = layout, n
+        self.plan, self.sizes = [], None
+
+    def _make_plan(self):
+        ends = [0, 0, 0]  # floats, flags, counts
+        self.plan = []
+        for key, kind, width in self.layout():
+            src = {"flags": 1, "count": 2}.get(kind, 0)
+            start = ends[src]
+            ends[src] += width * self.n
+            shape = {"floats": (self.n, width), "points": (self.n, width // 2, 2), "flags": (self.n, width)}.get(kind)
+            self.plan.append((key, "_" + key, src, start, ends[src], shape, kind == "maybe"))
+        self.floats = {key: (start, end) for key, _, src, start, end, _, _ in self.plan if src == 0}
+        self.sizes = (ends[0] * 8, ends[1], ends[2] * 8)
+
+    def __call__(self, floats, flags, counts, first_none):
+        """``(infos, floats)``: the batched infos and the float64 buffer they were cut from
+        (``floats[slice(*self.floats[key])]`` is a float key's values, NaN for None)."""
+        if (len(floats), len(flags), len(counts)) != self.sizes:
+            self._make_plan()
+        buffers = (np.frombuffer(floats, np.float64), np.frombuffer(flags, np.bool_), np.frombuffer(counts, np.int64))
+        masks = np.ones((len(self.plan), self.n), dtype=np.bool_)
         infos = {}
-        masks = np.ones((len(batch), n), dtype=np.bool_)
-        for k, (key, kind, data, first_none) in enumerate(batch):
-            if kind == "flags":
-                array = np.frombuffer(data, dtype=np.bool_).reshape(n, -1)
-            elif kind == "count":
-                array = np.frombuffer(data, dtype=np.int64)
-            else:
-                array = np.frombuffer(data, dtype=np.float64)
-                if kind == "floats":
-                    array = array.reshape(n, -1)
-                elif kind == "points":
-                    array = array.reshape(n, -1, 2)
-                elif first_none:
-                    # the first arm's None makes it an array of objects
-                    array = np.array([None if v != v else v for v in array.tolist()], dtype=object)
+        for k, (key, mask_key, src, start, end, shape, maybe) in enumerate(self.plan):
+            array = buffers[src][start:end]
+            if shape is not None:
+                array = array.reshape(shape)
+            elif maybe and first_none[k]:
+                # the first arm's None makes it an array of objects
+                array = np.array([None if v != v else v for v in array.tolist()], dtype=object)
             infos[key] = array
-            infos["_" + key] = masks[k]
-        return infos
+            infos[mask_key] = masks[k]
+        return infos, buffers[0]
 
 
 def _arm_seed(rng):
@@ -233,7 +241,7 @@ class SoftArmEnv(gym.Env):
         self._live = None
 
     def _obs(self):
-        obs = self._layout.obs(*self._arm.observation())
+        obs = self._layout.obs(*self._arm.observation_clipped(self._layout.bounds))
         if self.frames:
             obs["frames"] = self.camera_frames()
         return obs
@@ -352,6 +360,7 @@ class SoftArmVectorEnv(VectorEnv):
         # each arm's next seed, drawn ahead (see _build_ahead)
         self._ahead = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        self._infos = _InfoBatch(self._arms.info_layout, self.num_envs)
 
     def _seed_for(self, i, seed=None):
         if seed is not None or self._rngs[i] is None:
@@ -371,7 +380,7 @@ class SoftArmVectorEnv(VectorEnv):
             self._arms.prepare(int(i), self._ahead[i])
 
     def _obs(self):
-        return self._layout.batch_obs(*self._arms.observation_batch(), self.num_envs)
+        return self._layout.obs(*self._arms.observation_batch(self._layout.bounds), self.num_envs)
 
     def reset(self, *, seed=None, options=None):
         """Resets every arm (or those of ``options["reset_mask"]``); ``seed``: an int (arm
@@ -397,19 +406,20 @@ class SoftArmVectorEnv(VectorEnv):
     def step(self, actions):
         """One move of every arm (or the reset of an arm whose episode ended)."""
         actions = np.asarray(actions, dtype=np.float32).reshape(self.action_space.shape)
-        seeds = [self._seed_for(i) if self._autoreset[i] else None for i in range(self.num_envs)]
-        acts = [None if self._autoreset[i] else actions[i].tolist() for i in range(self.num_envs)]
+        resetting = self._autoreset.tolist()
+        seeds = [self._seed_for(i) if r else None for i, r in enumerate(resetting)]
+        acts = [None if r else a for r, a in zip(resetting, actions.tolist())]
         self._arms.run(seeds, acts)
-        self._build_ahead(np.flatnonzero(self._autoreset))
-        rewards = np.zeros(self.num_envs, dtype=np.float64)
-        terminated = np.zeros(self.num_envs, dtype=np.bool_)
-        truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        infos = _Layout.batch_infos(self._arms.info_batch(), self.num_envs)
-        errors, moves = infos["error_px"].tolist(), infos["moves"].tolist()
-        for i in range(self.num_envs):
-            if not self._autoreset[i]:
-                err = None if errors[i] is None or errors[i] != errors[i] else errors[i]
-                rewards[i], terminated[i], truncated[i] = self._layout.outcome_of(err, moves[i])
+        if any(resetting):
+            self._build_ahead([i for i, r in enumerate(resetting) if r])
+        infos, floats = self._infos(*self._arms.info_batch())
+        rewards, terminated, truncated = self._layout.outcomes(
+            floats[slice(*self._infos.floats["error_px"])], infos["moves"]
+        )
+        # an arm reset by this step has reward 0 and goes on
+        rewards[self._autoreset] = 0.0
+        terminated &= ~self._autoreset
+        truncated &= ~self._autoreset
         self._autoreset = terminated | truncated
         return self._obs(), rewards, terminated, truncated, infos
 
