@@ -147,6 +147,9 @@ def main():
                     f" --seconds {s:g} --rounds {a.rounds} --out {a.out}` (SoftArm-v0 and MuJoCo's Reacher-v5"
                     " in one run).\n\n")
             f.write("\n".join(lines) + "\n")
+            notes = os.path.join(os.path.dirname(os.path.abspath(__file__)), "bench_steps_notes.md")
+            with open(notes) as g:
+                f.write("\n" + g.read())
 
 if __name__ == "__main__":
     main()

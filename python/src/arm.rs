@@ -20,6 +20,8 @@
 //! `from_state` (pickling in Python).
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
+
+use crate::ahead::Ahead;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict};
 use pyo3::IntoPyObjectExt;
@@ -299,6 +301,33 @@ impl Sim {
         !self.options.persistent
     }
 
+    /// Starts building the episode that `reset(seed)` gives, from a copy of this arm (see
+    /// `crate::ahead`); `None` for an arm that carries its plant over, whose next episode
+    /// depends on this one.
+    pub(crate) fn build_ahead(&self, seed: u64, name: String) -> Option<Ahead<Sim>> {
+        if !self.resets_afresh() {
+            return None;
+        }
+        let mut sim = self.clone();
+        Ahead::start(seed, name, move || sim.reset(seed).map(|()| sim))
+    }
+
+    /// The reset to `seed`, taking the episode built ahead for it when it is ready (then
+    /// `Ok(true)`), else building it here.
+    pub(crate) fn reset_taking(
+        &mut self,
+        seed: u64,
+        ahead: Option<Ahead<Sim>>,
+    ) -> Result<bool, String> {
+        match Ahead::take(ahead, seed) {
+            Some(ready) => {
+                *self = ready;
+                Ok(true)
+            }
+            None => self.reset(seed).map(|()| false),
+        }
+    }
+
     /// A new episode from `seed` (see the module).
     pub fn reset(&mut self, seed: u64) -> Result<(), String> {
         if !(self.options.persistent && self.started) {
@@ -525,9 +554,21 @@ pub(crate) fn resolve(config: &str) -> PyResult<SimConfig> {
 #[pyclass(module = "trn_softarm._native")]
 pub struct Arm {
     sim: Sim,
+    /// The next episode, being built (see [`crate::ahead`]).
+    ahead: Option<Ahead<Sim>>,
+    /// Resets that took an episode built ahead.
+    taken: u64,
 }
 
 impl Arm {
+    fn of(sim: Sim) -> Arm {
+        Arm {
+            sim,
+            ahead: None,
+            taken: 0,
+        }
+    }
+
     /// The configuration its plants are built from (the calibrated model's arm).
     pub(crate) fn sim_config(&self) -> &SimConfig {
         &self.sim.cfg
@@ -558,17 +599,41 @@ impl Arm {
             persistent,
             randomise,
         };
-        Ok(Arm {
-            sim: Sim::new(resolve(config)?, stage, options).map_err(value_err)?,
-        })
+        Ok(Arm::of(
+            Sim::new(resolve(config)?, stage, options).map_err(value_err)?,
+        ))
     }
 
     /// A new episode from `seed`: the plant (unless persistent), the target and the start
     /// pose; the arm's first reading follows.
     fn reset(&mut self, py: Python<'_>, seed: u64) -> PyResult<()> {
-        let sim = &mut self.sim;
-        py.detach(|| sim.reset(seed))
-            .map_err(PyRuntimeError::new_err)
+        let (sim, ahead) = (&mut self.sim, self.ahead.take());
+        let took = py
+            .detach(|| sim.reset_taking(seed, ahead))
+            .map_err(PyRuntimeError::new_err)?;
+        self.taken += u64::from(took);
+        Ok(())
+    }
+
+    /// Starts building the episode that `reset(seed)` gives, on a thread of the lowest
+    /// priority (see `crate::ahead`): that reset takes it when it is ready. Nothing is built
+    /// for a persistent arm, whose next episode depends on this one.
+    fn prepare(&mut self, seed: u64) {
+        if !matches!(&self.ahead, Some(a) if a.is_for(seed)) {
+            self.ahead = self.sim.build_ahead(seed, "trn-arm-ahead".into());
+        }
+    }
+
+    /// Whether the next episode is built and waiting for its reset.
+    #[getter]
+    fn ready_ahead(&self) -> bool {
+        self.ahead.as_ref().is_some_and(Ahead::is_ready)
+    }
+
+    /// Resets so far that took an episode built ahead.
+    #[getter]
+    fn resets_built_ahead(&self) -> u64 {
+        self.taken
     }
 
     /// One move: the pressures of the joints this stage drives (5 or 3, each in [-1, 1]),
@@ -653,7 +718,7 @@ impl Arm {
             .map_err(|e| e.to_string())
             .and_then(Sim::restored)
             .map_err(|e| PyValueError::new_err(format!("not an arm's state: {e}")))?;
-        Ok(Arm { sim })
+        Ok(Arm::of(sim))
     }
 
     /// Pickling (and `copy.deepcopy`): the state, restored by `Arm.from_state`.

@@ -1,25 +1,15 @@
 //! [`ArmVec`]: `n` simulated arms stepped in one call by a [`Crew`] with the GIL released
 //! (the native vector environment's core), with each arm's next episode built ahead of its
-//! reset on a thread of the lowest priority.
-//!
-//! An episode's reset is the costliest thing an arm does (the plant built, the target's twin
-//! moved along its path, the start move: about four moves' time), and a vector step waits
-//! for its slowest arm: an arm that resets holds the other arms' threads idle for most of
-//! the step. When the next episode's seed is known ahead ([`ArmVec::prepare`]) and the arm
-//! does not carry its plant over (`persistent`), that episode is built at once, on a thread
-//! of its own at the lowest priority, from an untouched copy of the arm: the cores' idle
-//! time (the Python layer between steps, the arms that finish early) builds it, and the
-//! reset takes it ready. An arm built from a copy is the arm the reset would build, bit for
-//! bit: a reset that does not carry the plant over keeps nothing of the episode before.
+//! reset ([`crate::ahead`]).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict};
 
+use crate::ahead::Ahead;
 use crate::arm::{resolve, value_err, Bounds, ObservationArrays, ObservationBytes, Options, Sim};
 use trn_crew::Crew;
 
@@ -35,55 +25,21 @@ pub struct ArmVec {
     /// An arm as built, not reset: what each episode built ahead starts from.
     blank: Sim,
     /// Each arm's next episode, being built (see the module).
-    ahead: Vec<Option<Ahead>>,
+    ahead: Vec<Option<Ahead<Sim>>>,
     /// Resets that took an episode built ahead.
     taken: Arc<AtomicU64>,
-}
-
-/// An episode built ahead: its seed and the thread building it.
-struct Ahead {
-    seed: u64,
-    job: JoinHandle<Result<Sim, String>>,
 }
 
 /// What one arm of an [`ArmVec`] does in a call.
 enum Work {
     /// A reset, with the episode built ahead for this seed if there is one.
-    Reset(u64, Option<Ahead>),
+    Reset(u64, Option<Ahead<Sim>>),
     Step(Vec<f32>),
 }
 
 /// Arm `i`, locked (a lock an arm's panic left poisoned still holds the arm).
 fn arm(sims: &[Mutex<Sim>], i: usize) -> MutexGuard<'_, Sim> {
     sims[i].lock().unwrap_or_else(|p| p.into_inner())
-}
-
-/// Lowers the calling thread's priority to the least (nice 19; on Linux a thread's nice
-/// value is its own), so that building ahead takes mostly what the arms and the Python layer
-/// leave idle. (The idle scheduling class, `SCHED_IDLE`, measured no faster.)
-fn lowest_priority() {
-    #[cfg(target_os = "linux")]
-    // SAFETY: setpriority reads no memory of ours; `who = 0` is the calling thread. A
-    // failure leaves the priority as it was, which is harmless.
-    unsafe {
-        libc::setpriority(libc::PRIO_PROCESS, 0, 19);
-    }
-}
-
-/// The reset of `sim` to `seed`: the episode built ahead for it when its thread has
-/// finished, else the reset here (a thread of the lowest priority may wait long for a core
-/// on a busy machine; it ends on its own).
-fn reset(sim: &mut Sim, seed: u64, ahead: Option<Ahead>, taken: &AtomicU64) -> Result<(), String> {
-    if let Some(a) = ahead.filter(|a| a.job.is_finished()) {
-        if let Ok(Ok(ready)) = a.job.join() {
-            *sim = ready;
-            taken.fetch_add(1, Ordering::Relaxed);
-            return Ok(());
-        }
-    }
-    // none, not ready, or its thread failed (it panicked, or the reset is an error that
-    // this one reports)
-    sim.reset(seed)
 }
 
 #[pymethods]
@@ -148,7 +104,6 @@ impl ArmVec {
                     // an episode built ahead for another seed is not this one: dropped
                     // (its thread ends on its own)
                     let ahead = self.ahead.get_mut(i).and_then(|a| a.take());
-                    let ahead = ahead.filter(|a| a.seed == seed);
                     Some(Work::Reset(seed, ahead))
                 }
                 (None, Some(a)) => Some(Work::Step(a)),
@@ -161,7 +116,11 @@ impl ArmVec {
         let task = Arc::new(move |i: usize| {
             let w = work[i].lock().unwrap_or_else(|p| p.into_inner()).take();
             match w {
-                Some(Work::Reset(seed, ahead)) => reset(&mut arm(&sims, i), seed, ahead, &taken),
+                Some(Work::Reset(seed, ahead)) => {
+                    let took = arm(&sims, i).reset_taking(seed, ahead)?;
+                    taken.fetch_add(u64::from(took), Ordering::Relaxed);
+                    Ok(())
+                }
                 Some(Work::Step(a)) => arm(&sims, i).step(&a),
                 None => Ok(()),
             }
@@ -186,29 +145,16 @@ impl ArmVec {
             .ahead
             .get_mut(i)
             .ok_or_else(|| PyValueError::new_err(format!("no arm {i} of {n}")))?;
-        if !self.blank.resets_afresh() || matches!(slot, Some(a) if a.seed == seed) {
-            return Ok(());
+        if !matches!(slot, Some(a) if a.is_for(seed)) {
+            *slot = self.blank.build_ahead(seed, format!("trn-arm-{i}-ahead"));
         }
-        let mut sim = self.blank.clone();
-        let job = std::thread::Builder::new()
-            .name(format!("trn-arm-{i}-ahead"))
-            .spawn(move || {
-                lowest_priority();
-                sim.reset(seed).map(|()| sim)
-            });
-        // a thread that cannot be had builds nothing ahead: the reset builds the episode
-        *slot = job.ok().map(|job| Ahead { seed, job });
         Ok(())
     }
 
     /// Arms whose next episode is built and waiting for their reset.
     #[getter]
     fn ready_ahead(&self) -> usize {
-        self.ahead
-            .iter()
-            .flatten()
-            .filter(|a| a.job.is_finished())
-            .count()
+        self.ahead.iter().flatten().filter(|a| a.is_ready()).count()
     }
 
     /// Resets so far that took an episode built ahead.

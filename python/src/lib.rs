@@ -16,6 +16,7 @@
 
 use pyo3::prelude::*;
 
+mod ahead;
 mod arm;
 mod arm_vec;
 mod control;

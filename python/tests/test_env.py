@@ -136,7 +136,7 @@ def test_native_vector_env_steps_as_sync_vector_env(stage):
 def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persistent):
     kw = dict(config="ideal", max_moves=2, persistent=persistent)
     native = SoftArmVectorEnv(num_envs=2, **kw)
-    sync = gym.vector.SyncVectorEnv([lambda: SoftArmEnv(**kw) for _ in range(2)])
+    sync = gym.vector.SyncVectorEnv([lambda: SoftArmEnv(build_ahead=False, **kw) for _ in range(2)])
     assert data_equivalence(native.reset(seed=3), sync.reset(seed=3), exact=True)
     resets = 0
     for actions in random_actions(native.action_space, 9, seed=4):
@@ -151,6 +151,34 @@ def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persis
         resets += int(ending.sum())
     assert resets >= 4, "every episode ends after two moves and resets on the next step"
     assert native._arms.resets_built_ahead == (0 if persistent else resets)
+
+
+@pytest.mark.parametrize("persistent", [False, True])
+def test_the_single_env_builds_its_next_episode_ahead_as_its_reset_would(persistent):
+    # against an env that builds every episode in its reset: the same observations, infos
+    # and generator draws; every reset took the episode built ahead (fails if the seed drawn
+    # ahead were not the reset's, or the draw ahead moved the generator on)
+    kw = dict(config="ideal", max_moves=2, persistent=persistent)
+    ahead, plain = SoftArmEnv(**kw), SoftArmEnv(build_ahead=False, **kw)
+    assert data_equivalence(ahead.reset(seed=3), plain.reset(seed=3), exact=True)
+    resets = 0
+    for action in random_actions(ahead.action_space, 9, seed=4):
+        a, b = ahead.step(action), plain.step(action)
+        assert data_equivalence(a, b, exact=True), (a, b)
+        if a[2] or a[3]:
+            deadline = time.monotonic() + 60
+            while not persistent and not ahead._arm.ready_ahead and time.monotonic() < deadline:
+                time.sleep(0.001)
+            assert data_equivalence(ahead.reset(), plain.reset(), exact=True)
+            resets += 1
+    assert resets >= 4, "every episode ends after two moves"
+    assert ahead._arm.resets_built_ahead == (0 if persistent else resets)
+    assert plain._arm.resets_built_ahead == 0
+    assert ahead.np_random.integers(1 << 62) == plain.np_random.integers(1 << 62)
+    # a seed given is not the one drawn ahead: that episode is built in the reset
+    before = ahead._arm.resets_built_ahead
+    assert data_equivalence(ahead.reset(seed=11), plain.reset(seed=11), exact=True)
+    assert ahead._arm.resets_built_ahead == before
 
 
 def _two_arms_with_their_episodes_built_ahead():

@@ -186,6 +186,13 @@ class SoftArmEnv(gym.Env):
       and hysteresis width multiplied by factors drawn uniformly from [1 - r, 1 + r], from
       the episode's seed (``info["plant_seed"]``).
 
+    ``build_ahead`` (default True): as soon as an episode begins, the next one (the one a
+    ``reset()`` without a seed gives) is built on a thread of the lowest priority, in the
+    cores' idle time, and that reset takes it ready: the same episode bit for bit, the
+    generator's draws unchanged. False builds every episode in its reset, on the caller's
+    thread alone (many environments on few cores, where no core is idle). A persistent arm's
+    next episode depends on this one and is always built in its reset.
+
     ``render_scale``: each camera image is drawn at 1/scale of its resolution.
 
     ``frames``: the observation gains ``frames``, the camera frames of the arm's lights as
@@ -212,6 +219,7 @@ class SoftArmEnv(gym.Env):
         randomise=0.0,
         frames=False,
         frame_scale=4,
+        build_ahead=True,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -219,6 +227,7 @@ class SoftArmEnv(gym.Env):
                 + ("" if "human" in RENDER_MODES else " (human needs the [live] extra and a display)")
             )
         self._arm = Arm(config, stage, dt_s, bool(persistent), float(randomise))
+        self._build_next = bool(build_ahead) and not persistent
         self.stage = stage
         self.config = config
         self.max_moves = int(max_moves)
@@ -259,10 +268,22 @@ class SoftArmEnv(gym.Env):
         """A new held-out target and start pose; reproducible from ``seed``."""
         super().reset(seed=seed)
         self._arm.reset(_arm_seed(self.np_random))
+        if self._build_next:
+            self._build_ahead()
         obs, info = self._obs(), self._info()
         if self.render_mode == "human":
             self._show(obs, info, reward=None)
         return obs, info
+
+    def _build_ahead(self):
+        """Has the native side build the episode that the next reset without a seed gives
+        (``Arm.prepare``), in the cores' idle time: its seed drawn from ``np_random``, whose
+        state is then put back as it was, so that the draws are the same as without."""
+        bits = self.np_random.bit_generator
+        state = bits.state
+        seed = _arm_seed(self.np_random)
+        bits.state = state
+        self._arm.prepare(seed)
 
     def step(self, action):
         """One move: command ``action`` (clipped to [-1, 1]), read the cameras."""
@@ -339,6 +360,7 @@ class SoftArmVectorEnv(VectorEnv):
         randomise=0.0,
         render_mode=None,
         frames=False,
+        build_ahead=True,
     ):
         if render_mode is not None:
             raise ValueError("the native vector environment does not render; use SoftArmEnv")
@@ -360,6 +382,7 @@ class SoftArmVectorEnv(VectorEnv):
         # each arm's next seed, drawn ahead (see _build_ahead)
         self._ahead = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        self._build_next = bool(build_ahead)
         self._infos = _InfoBatch(self._arms.info_layout, self.num_envs)
 
     def _seed_for(self, i, seed=None):
@@ -375,6 +398,8 @@ class SoftArmVectorEnv(VectorEnv):
         """Draws the seed of each arm's next reset now (nothing else draws from an arm's
         generator, so it is the seed that reset would draw) and has the native side build
         that episode meanwhile, in the cores' idle time."""
+        if not self._build_next:
+            return
         for i in arms:
             self._ahead[i] = _arm_seed(self._rngs[i])
             self._arms.prepare(int(i), self._ahead[i])
