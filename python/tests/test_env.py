@@ -7,7 +7,9 @@ README says, and the flat observation suits SB3's VecNormalize (when SB3 is inst
 """
 
 import copy
+import gc
 import importlib.util
+import os
 import pickle
 import time
 
@@ -415,3 +417,43 @@ def test_the_native_clip_is_numpys():
     # an arm not yet reset has no target: NaN, kept so by the clip
     target = np.frombuffer(Arm("realistic", 1).observation_clipped(bounds)[2], dtype=np.float32)
     assert target.size == 8 and np.isnan(target).all()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this system")
+def test_a_forked_child_steps_and_drops_a_vector_env():
+    # a process forked from one holding a vector env has none of its crew's threads, and
+    # may have a copy of a lock one of them held: the child's crew knows it has no threads
+    # and runs every arm on the child's own thread, touching none of the shared state, and
+    # drops it (fails with the fork check removed: the child's crew then counts the
+    # parent's threads; a child that hung would fail by the deadline)
+    envs = SoftArmVectorEnv(num_envs=2, config="ideal", dt_s=0.05)
+    envs.reset(seed=0)
+    actions = random_actions(envs.action_space, 3, seed=1)
+    envs.step(actions[0])
+    threads = envs._arms.crew_threads
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            for a in actions[1:]:
+                envs.step(a)
+            assert envs._arms.crew_threads == 0
+            del envs
+            gc.collect()
+            code = 0
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        time.sleep(0.01)
+    else:
+        os.kill(pid, 9)
+        os.waitpid(pid, 0)
+        pytest.fail("the forked child hung")
+    assert os.waitstatus_to_exitcode(status) == 0
+    # the parent's crew goes on
+    envs.step(actions[1])
+    assert envs._arms.crew_threads == threads

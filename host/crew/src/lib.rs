@@ -18,6 +18,10 @@
 //! [`SPIN_BEFORE_YIELD`] (a loaded machine).
 //!
 //! A job that panics is reported as its error; the crew's thread goes on.
+//!
+//! A process forked from one that holds a crew has none of its threads (and may have a copy
+//! of a lock one of them held): in the child, the caller runs every job itself, touching
+//! nothing the threads share, and dropping the crew joins nothing.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -63,6 +67,8 @@ pub struct Crew {
     shared: Arc<Shared>,
     threads: Vec<JoinHandle<()>>,
     generation: u32,
+    /// The process the threads run in (see the module on forks).
+    pid: u32,
 }
 
 impl Shared {
@@ -162,6 +168,7 @@ impl Crew {
             shared,
             threads,
             generation: 0,
+            pid: std::process::id(),
         }
     }
 
@@ -174,12 +181,37 @@ impl Crew {
 
     /// Threads beside the caller.
     pub fn threads(&self) -> usize {
-        self.threads.len()
+        if self.forked() {
+            0
+        } else {
+            self.threads.len()
+        }
+    }
+
+    /// Whether this is a copy in a forked process, which has none of the threads.
+    fn forked(&self) -> bool {
+        std::process::id() != self.pid
+    }
+
+    /// `run` in a forked process: every job on the caller, in order.
+    fn run_alone(n: usize, task: &Task) -> Result<(), String> {
+        let mut first = Ok(());
+        for i in 0..n {
+            let outcome = catch_unwind(AssertUnwindSafe(|| task(i)))
+                .unwrap_or_else(|_| Err(format!("job {i} panicked")));
+            if first.is_ok() {
+                first = outcome;
+            }
+        }
+        first
     }
 
     /// Runs `task(i)` for every job `i < n`, the caller and the crew taking jobs in turn;
     /// returns when all have run, with the error of the lowest job that failed.
     pub fn run(&mut self, n: usize, task: Arc<Task>) -> Result<(), String> {
+        if self.forked() {
+            return Crew::run_alone(n, &*task);
+        }
         self.generation = self.generation.wrapping_add(1).max(1);
         let job = Arc::new(Job {
             generation: self.generation,
@@ -211,6 +243,11 @@ impl Crew {
 
 impl Drop for Crew {
     fn drop(&mut self) {
+        if self.forked() {
+            // the threads are the parent's: nothing to stop, join or detach
+            self.threads.drain(..).for_each(std::mem::forget);
+            return;
+        }
         self.shared.stop.store(true, Ordering::SeqCst);
         {
             let _guard = self.shared.asleep.lock().unwrap_or_else(|p| p.into_inner());
