@@ -35,6 +35,19 @@ impl<T: Send + 'static> Ahead<T> {
         job.ok().map(|job| Ahead { seed, job })
     }
 
+    /// Has `slot` hold the episode that `seed` gives: kept when it already does, else what
+    /// `start` begins (see [`Ahead::start`]) replaces it, and a thread building another
+    /// seed's episode ends on its own.
+    pub(crate) fn prepare(
+        slot: &mut Option<Ahead<T>>,
+        seed: u64,
+        start: impl FnOnce() -> Option<Ahead<T>>,
+    ) {
+        if !matches!(slot, Some(a) if a.is_for(seed)) {
+            *slot = start();
+        }
+    }
+
     /// Whether this is the episode `seed` gives.
     pub(crate) fn is_for(&self, seed: u64) -> bool {
         self.seed == seed

@@ -619,9 +619,9 @@ impl Arm {
     /// priority (see `crate::ahead`): that reset takes it when it is ready. Nothing is built
     /// for a persistent arm, whose next episode depends on this one.
     fn prepare(&mut self, seed: u64) {
-        if !matches!(&self.ahead, Some(a) if a.is_for(seed)) {
-            self.ahead = self.sim.build_ahead(seed, "trn-arm-ahead".into());
-        }
+        Ahead::prepare(&mut self.ahead, seed, || {
+            self.sim.build_ahead(seed, "trn-arm-ahead".into())
+        });
     }
 
     /// Whether the next episode is built and waiting for its reset.

@@ -145,9 +145,9 @@ impl ArmVec {
             .ahead
             .get_mut(i)
             .ok_or_else(|| PyValueError::new_err(format!("no arm {i} of {n}")))?;
-        if !matches!(slot, Some(a) if a.is_for(seed)) {
-            *slot = self.blank.build_ahead(seed, format!("trn-arm-{i}-ahead"));
-        }
+        Ahead::prepare(slot, seed, || {
+            self.blank.build_ahead(seed, format!("trn-arm-{i}-ahead"))
+        });
         Ok(())
     }
 

@@ -34,6 +34,14 @@ def random_actions(space, n, seed):
     return [space.sample() for _ in range(n)]
 
 
+def _wait_until(ready, seconds=60):
+    # an episode built ahead on a thread of the lowest priority: polled, not assumed; the
+    # caller's assertions say what a timeout means
+    deadline = time.monotonic() + seconds
+    while not ready() and time.monotonic() < deadline:
+        time.sleep(0.001)
+
+
 def test_check_env_on_the_registered_id():
     env = gym.make(trn_softarm.ENV_ID)
     check_env(env.unwrapped)
@@ -144,9 +152,8 @@ def test_the_vector_env_builds_each_next_episode_ahead_as_its_reset_would(persis
     for actions in random_actions(native.action_space, 9, seed=4):
         # a persistent arm's next episode depends on this one: nothing is built for it;
         # otherwise wait until every arm's is built, so that each reset takes it
-        deadline = time.monotonic() + 60
-        while not persistent and native._arms.ready_ahead < 2 and time.monotonic() < deadline:
-            time.sleep(0.001)
+        if not persistent:
+            _wait_until(lambda: native._arms.ready_ahead == 2)
         ending = native._autoreset.copy()
         a, b = native.step(actions), sync.step(actions)
         assert data_equivalence(a, b, exact=True), (a, b)
@@ -168,9 +175,8 @@ def test_the_single_env_builds_its_next_episode_ahead_as_its_reset_would(persist
         a, b = ahead.step(action), plain.step(action)
         assert data_equivalence(a, b, exact=True), (a, b)
         if a[2] or a[3]:
-            deadline = time.monotonic() + 60
-            while not persistent and not ahead._arm.ready_ahead and time.monotonic() < deadline:
-                time.sleep(0.001)
+            if not persistent:
+                _wait_until(lambda: ahead._arm.ready_ahead)
             assert data_equivalence(ahead.reset(), plain.reset(), exact=True)
             resets += 1
     assert resets >= 4, "every episode ends after two moves"
@@ -186,9 +192,7 @@ def test_the_single_env_builds_its_next_episode_ahead_as_its_reset_would(persist
 def _two_arms_with_their_episodes_built_ahead():
     native = SoftArmVectorEnv(num_envs=2, config="ideal")
     native.reset(seed=1)
-    deadline = time.monotonic() + 60
-    while native._arms.ready_ahead < 2 and time.monotonic() < deadline:
-        time.sleep(0.001)
+    _wait_until(lambda: native._arms.ready_ahead == 2)
     assert native._arms.ready_ahead == 2
     return native
 
