@@ -400,7 +400,7 @@ impl Sim {
         Ok(())
     }
 
-    fn joints(&self) -> usize {
+    pub(crate) fn joints(&self) -> usize {
         if self.stage == 1 {
             5
         } else {
@@ -416,12 +416,27 @@ impl Sim {
         Ok(d)
     }
 
+    /// The measured error (pixels) from the target: the info's `error_px`, `None` when a
+    /// reading is not valid.
+    fn error_px(&self) -> Option<f64> {
+        let valid = self.status.iter().all(|&s| s == 0);
+        valid.then(|| dist(&self.lights, &self.target_of().0))
+    }
+
+    /// The reward, whether the episode ended at the target (terminated) and whether it ran
+    /// out of moves (truncated), by `rule`.
+    pub(crate) fn outcome(&self, rule: &Outcome) -> (f64, bool, bool) {
+        let err = self.error_px();
+        let terminated = err.is_some_and(|e| e <= rule.tolerance_px);
+        let truncated = !terminated && self.moves as u64 >= rule.max_moves;
+        (err.map_or(-rule.diagonal, |e| -e), terminated, truncated)
+    }
+
     /// The info's keys and values, in the info's order.
     pub(crate) fn info_values(&self) -> Vec<(&'static str, InfoValue)> {
         use InfoValue::*;
-        let (target, target_true) = self.target_of();
+        let (_, target_true) = self.target_of();
         let t = &self.truth;
-        let valid = self.status.iter().all(|&s| s == 0);
         let in_view = t.in_view.iter().all(|&v| v);
         let noise_floor_px = if self.stage == 1 {
             self.target.noise_v
@@ -429,10 +444,7 @@ impl Sim {
             self.target.noise_c
         } as f64;
         vec![
-            (
-                "error_px",
-                Maybe(valid.then(|| dist(&self.lights, &target))),
-            ),
+            ("error_px", Maybe(self.error_px())),
             (
                 "error_true_px",
                 Maybe(in_view.then(|| dist(&t.lights_true, &target_true))),
@@ -461,6 +473,17 @@ impl Sim {
             ("plant_seed", Count(self.plant_seed)),
         ]
     }
+}
+
+/// How a move's reading is scored (the environment's `tolerance_px`, `max_moves` and the
+/// image's diagonal): the reward is minus the measured error in pixels (minus the diagonal
+/// when a reading is not valid), the episode ends at an error within the tolerance and is
+/// cut off after `max_moves` moves.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Outcome {
+    pub(crate) tolerance_px: f64,
+    pub(crate) max_moves: u64,
+    pub(crate) diagonal: f64,
 }
 
 /// The box an observed point is clipped to: `(x low, y low, x high, y high)`, pixels.
@@ -697,6 +720,17 @@ impl Arm {
             .detach(|| sim.frames(scale))
             .map_err(PyRuntimeError::new_err)?;
         Ok((w, h, n, PyBytes::new(py, &px)))
+    }
+
+    /// `(reward, terminated, truncated)` of the last move: the reward minus the measured
+    /// error (pixels), or minus `diagonal` when a reading is not valid; terminated at an
+    /// error within `tolerance_px`; truncated, when not terminated, at `max_moves` moves.
+    fn outcome(&self, tolerance_px: f64, max_moves: u64, diagonal: f64) -> (f64, bool, bool) {
+        self.sim.outcome(&Outcome {
+            tolerance_px,
+            max_moves,
+            diagonal,
+        })
     }
 
     /// What the agent is not shown: the noise-free truth, the errors, the arm's state.

@@ -10,7 +10,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict};
 
 use crate::ahead::Ahead;
-use crate::arm::{resolve, value_err, Bounds, ObservationArrays, ObservationBytes, Options, Sim};
+use crate::arm::{
+    resolve, value_err, Bounds, ObservationArrays, ObservationBytes, Options, Outcome, Sim,
+};
 use trn_crew::Crew;
 
 /// `n` arms of one configuration stepped together: every call runs the arms on a [`Crew`]
@@ -36,6 +38,20 @@ enum Work {
     Reset(u64, Option<Ahead<Sim>>),
     Step(Vec<f32>),
 }
+
+/// What [`ArmVec::step_batch`] returns: the observation's three buffers, the info's four
+/// (as `info_batch`), the rewards and the ends.
+type StepArrays<'py> = (
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyBytes>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+);
 
 /// Arm `i`, locked (a lock an arm's panic left poisoned still holds the arm).
 fn arm(sims: &[Mutex<Sim>], i: usize) -> MutexGuard<'_, Sim> {
@@ -95,38 +111,81 @@ impl ArmVec {
                 actions.len()
             )));
         }
-        let work: Vec<Mutex<Option<Work>>> = seeds
-            .into_iter()
-            .zip(actions)
-            .enumerate()
-            .map(|(i, (s, a))| match (s, a) {
-                (Some(seed), _) => {
-                    // an episode built ahead for another seed is not this one: dropped
-                    // (its thread ends on its own)
-                    let ahead = self.ahead.get_mut(i).and_then(|a| a.take());
-                    Some(Work::Reset(seed, ahead))
-                }
-                (None, Some(a)) => Some(Work::Step(a)),
-                (None, None) => None,
-            })
-            .map(Mutex::new)
-            .collect();
-        let (sims, taken) = (self.sims.clone(), self.taken.clone());
-        let n = sims.len();
-        let task = Arc::new(move |i: usize| {
-            let w = work[i].lock().unwrap_or_else(|p| p.into_inner()).take();
-            match w {
-                Some(Work::Reset(seed, ahead)) => {
-                    let took = arm(&sims, i).reset_taking(seed, ahead)?;
-                    taken.fetch_add(u64::from(took), Ordering::Relaxed);
-                    Ok(())
-                }
-                Some(Work::Step(a)) => arm(&sims, i).step(&a),
-                None => Ok(()),
-            }
+        self.run_work(py, seeds, actions)
+    }
+
+    /// The vector environment's step in one call: arm `i` reset from `seeds[i]` where one
+    /// is given (`seeds` None: none is), else moved by its row of `actions` (native-endian
+    /// float32, one row of the stage's joints an arm; a reset arm's row is not used), all
+    /// at once as [`ArmVec::run`] does; then what `observation_batch(bounds)` and
+    /// `info_batch()` give, and each arm's outcome by `tolerance_px`, `max_moves` and
+    /// `diagonal` (as `Arm.outcome` scores a move): `rewards` (float64) and `ends` (bool,
+    /// the arms' terminated then their truncated), an arm reset here 0, False and False.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (seeds, actions, bounds, tolerance_px, max_moves, diagonal))]
+    fn step_batch<'py>(
+        &mut self,
+        py: Python<'py>,
+        seeds: Option<Vec<Option<u64>>>,
+        actions: &[u8],
+        bounds: [f32; 4],
+        tolerance_px: f64,
+        max_moves: u64,
+        diagonal: f64,
+    ) -> PyResult<StepArrays<'py>> {
+        let n = self.sims.len();
+        let joints = self.blank.joints();
+        let seeds = seeds.unwrap_or_else(|| vec![None; n]);
+        if seeds.len() != n || actions.len() != n * joints * 4 {
+            return Err(PyValueError::new_err(format!(
+                "{n} arms of {joints} joints: {n} seeds (or None) and {} bytes of float32 \
+                 actions, {} seeds and {} bytes given",
+                n * joints * 4,
+                seeds.len(),
+                actions.len()
+            )));
+        }
+        let rows = actions.chunks_exact(joints * 4).map(|row| {
+            row.chunks_exact(4)
+                .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+                .collect()
         });
-        let crew = &mut self.crew;
-        py.detach(|| crew.run(n, task)).map_err(value_err)
+        let acts: Vec<Option<Vec<f32>>> = seeds
+            .iter()
+            .zip(rows)
+            .map(|(s, row)| s.is_none().then_some(row))
+            .collect();
+        let reset: Vec<bool> = seeds.iter().map(Option::is_some).collect();
+        self.run_work(py, seeds, acts)?;
+        let rule = Outcome {
+            tolerance_px,
+            max_moves,
+            diagonal,
+        };
+        let (mut rewards, mut terminated, mut truncated) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, &reset) in reset.iter().enumerate() {
+            let (r, te, tr) = match reset {
+                true => (0.0, false, false),
+                false => arm(&self.sims, i).outcome(&rule),
+            };
+            rewards.extend(r.to_ne_bytes());
+            terminated.push(u8::from(te));
+            truncated.push(u8::from(tr));
+        }
+        terminated.extend(truncated);
+        let (lights, status, target) = self.observation_batch(py, bounds);
+        let (floats, flags, counts, first_none) = self.info_batch(py);
+        Ok((
+            lights,
+            status,
+            target,
+            floats,
+            flags,
+            counts,
+            first_none,
+            PyByteArray::new(py, &rewards),
+            PyByteArray::new(py, &terminated),
+        ))
     }
 
     /// Threads that run the arms beside the caller's (one for each other core, at most one
@@ -242,5 +301,50 @@ impl ArmVec {
         }
         let sim = arm(&self.sims, i);
         sim.info(py)
+    }
+}
+
+impl ArmVec {
+    /// Arm `i` reset from `seeds[i]` (taking the episode built ahead for it) or moved by
+    /// `actions[i]`, every arm at once on the crew with the GIL released (`seeds` and
+    /// `actions` one an arm).
+    fn run_work(
+        &mut self,
+        py: Python<'_>,
+        seeds: Vec<Option<u64>>,
+        actions: Vec<Option<Vec<f32>>>,
+    ) -> PyResult<()> {
+        let work: Vec<Mutex<Option<Work>>> = seeds
+            .into_iter()
+            .zip(actions)
+            .enumerate()
+            .map(|(i, (s, a))| match (s, a) {
+                (Some(seed), _) => {
+                    // an episode built ahead for another seed is not this one: dropped
+                    // (its thread ends on its own)
+                    let ahead = self.ahead.get_mut(i).and_then(|a| a.take());
+                    Some(Work::Reset(seed, ahead))
+                }
+                (None, Some(a)) => Some(Work::Step(a)),
+                (None, None) => None,
+            })
+            .map(Mutex::new)
+            .collect();
+        let (sims, taken) = (self.sims.clone(), self.taken.clone());
+        let n = sims.len();
+        let task = Arc::new(move |i: usize| {
+            let w = work[i].lock().unwrap_or_else(|p| p.into_inner()).take();
+            match w {
+                Some(Work::Reset(seed, ahead)) => {
+                    let took = arm(&sims, i).reset_taking(seed, ahead)?;
+                    taken.fetch_add(u64::from(took), Ordering::Relaxed);
+                    Ok(())
+                }
+                Some(Work::Step(a)) => arm(&sims, i).step(&a),
+                None => Ok(()),
+            }
+        });
+        let crew = &mut self.crew;
+        py.detach(|| crew.run(n, task)).map_err(value_err)
     }
 }

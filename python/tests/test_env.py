@@ -204,6 +204,25 @@ def test_a_vector_call_of_the_wrong_length_is_refused_keeping_the_episodes_built
     assert native._arms.ready_ahead == 2
 
 
+def test_a_vector_step_of_the_wrong_size_is_refused_and_steps_no_arm():
+    native = _two_arms_with_their_episodes_built_ahead()
+    before = [native._arms.info(i)["moves"] for i in range(2)]
+    rule = native._layout.rule
+    with pytest.raises(ValueError, match="2 arms of 5 joints"):
+        native._arms.step_batch(None, np.zeros(9, np.float32).tobytes(), native._layout.bounds, *rule)
+    with pytest.raises(ValueError, match="2 arms of 5 joints"):
+        native._arms.step_batch([None], np.zeros(10, np.float32).tobytes(), native._layout.bounds, *rule)
+    assert [native._arms.info(i)["moves"] for i in range(2)] == before
+    assert native._arms.ready_ahead == 2
+
+
+@pytest.mark.parametrize("kw", [dict(max_moves=0), dict(max_moves=-3), dict(tolerance_px=float("nan"))])
+def test_meaningless_episode_rules_are_refused(kw):
+    for make in (SoftArmEnv, SoftArmVectorEnv):
+        with pytest.raises(ValueError, match="max_moves|tolerance_px"):
+            make(**kw)
+
+
 def test_an_episode_built_ahead_for_an_arm_that_is_not_there_is_refused():
     native = _two_arms_with_their_episodes_built_ahead()
     with pytest.raises(ValueError, match="no arm 2 of 2"):
@@ -240,7 +259,7 @@ def test_batched_infos_are_gymnasiums_for_any_first_arm():
     for i, info in enumerate(arms):
         info = {k: np.asarray(v) if isinstance(v, list) else v for k, v in info.items()}
         expected = envs._add_info(expected, info, i)
-    got, raw = trn_softarm.env._InfoBatch(lambda: layout, 2)(*batch)
+    got = trn_softarm.env._InfoBatch(lambda: layout, 2)(*batch)
     assert list(got) == list(expected)
     for key, want in expected.items():
         have = got[key]
@@ -250,7 +269,6 @@ def test_batched_infos_are_gymnasiums_for_any_first_arm():
         else:
             assert np.array_equal(have, want, equal_nan=want.dtype.kind == "f"), key
     assert got["error_px"].tolist() == [None, 2.0] and np.isnan(got["error_true_px"][1])
-    assert np.isnan(raw[0]) and raw[1] == 2.0
 
 
 def test_a_bad_action_is_a_value_error():

@@ -74,6 +74,12 @@ class _Layout:
         self.diagonal = float(np.hypot(w, h))
         self.tolerance_px = float(tolerance_px)
         self.max_moves = int(max_moves)
+        if np.isnan(self.tolerance_px):
+            raise ValueError("tolerance_px is a number of pixels (below 0: never reached), got NaN")
+        if self.max_moves < 1:
+            raise ValueError(f"max_moves is at least 1, got {max_moves!r}")
+        # how the native arms score a move (Arm.outcome, ArmVec.step_batch)
+        self.rule = (self.tolerance_px, self.max_moves, self.diagonal)
 
     def obs(self, lights, status, target, arms=None):
         """An observation from the native bytes: one arm's (``Arm.observation_clipped``) or,
@@ -98,25 +104,6 @@ class _Layout:
             info[k] = np.asarray(info[k])
         return info
 
-    def outcome(self, info):
-        """reward, terminated, truncated of a move whose info is ``info``."""
-        return self.outcome_of(info["error_px"], info["moves"])
-
-    def outcome_of(self, err, moves):
-        """reward, terminated, truncated of a move with measured error ``err`` (None when
-        a reading is not valid), the episode's ``moves``-th."""
-        reward = -float(err) if err is not None else -self.diagonal
-        terminated = err is not None and err <= self.tolerance_px
-        truncated = not terminated and moves >= self.max_moves
-        return reward, terminated, truncated
-
-    def outcomes(self, err, moves):
-        """``outcome_of`` of many arms' moves at once: ``err`` float64 with NaN where a
-        reading is not valid, ``moves`` the episodes' move counts; three arrays."""
-        valid = ~np.isnan(err)
-        terminated = valid & (err <= self.tolerance_px)
-        return np.where(valid, -err, -self.diagonal), terminated, ~terminated & (moves >= self.max_moves)
-
 
 class _InfoBatch:
     """The infos of ``n`` arms as Gymnasium's vector environments give them
@@ -140,12 +127,10 @@ class _InfoBatch:
             ends[src] += width * self.n
             shape = {"floats": (self.n, width), "points": (self.n, width // 2, 2), "flags": (self.n, width)}.get(kind)
             self.plan.append((key, "_" + key, src, start, ends[src], shape, kind == "maybe"))
-        self.floats = {key: (start, end) for key, _, src, start, end, _, _ in self.plan if src == 0}
         self.sizes = (ends[0] * 8, ends[1], ends[2] * 8)
 
     def __call__(self, floats, flags, counts, first_none):
-        """``(infos, floats)``: the batched infos and the float64 buffer they were cut from
-        (``floats[slice(*self.floats[key])]`` is a float key's values, NaN for None)."""
+        """The batched infos of ``ArmVec.info_batch()``'s buffers."""
         if (len(floats), len(flags), len(counts)) != self.sizes:
             self._make_plan()
         buffers = (np.frombuffer(floats, np.float64), np.frombuffer(flags, np.bool_), np.frombuffer(counts, np.int64))
@@ -160,7 +145,7 @@ class _InfoBatch:
                 array = np.array([None if v != v else v for v in array.tolist()], dtype=object)
             infos[key] = array
             infos[mask_key] = masks[k]
-        return infos, buffers[0]
+        return infos
 
 
 def _arm_seed(rng):
@@ -290,7 +275,7 @@ class SoftArmEnv(gym.Env):
         action = np.asarray(action, dtype=np.float32).reshape(self.action_space.shape)
         self._arm.step(action.tolist())
         obs, info = self._obs(), self._info()
-        reward, terminated, truncated = self._layout.outcome(info)
+        reward, terminated, truncated = self._arm.outcome(*self._layout.rule)
         if self.render_mode == "human":
             self._show(obs, info, reward)
         return obs, reward, terminated, truncated, info
@@ -430,23 +415,24 @@ class SoftArmVectorEnv(VectorEnv):
 
     def step(self, actions):
         """One move of every arm (or the reset of an arm whose episode ended)."""
-        actions = np.asarray(actions, dtype=np.float32).reshape(self.action_space.shape)
-        resetting = self._autoreset.tolist()
-        seeds = [self._seed_for(i) if r else None for i, r in enumerate(resetting)]
-        acts = [None if r else a for r, a in zip(resetting, actions.tolist())]
-        self._arms.run(seeds, acts)
-        if any(resetting):
-            self._build_ahead([i for i, r in enumerate(resetting) if r])
-        infos, floats = self._infos(*self._arms.info_batch())
-        rewards, terminated, truncated = self._layout.outcomes(
-            floats[slice(*self._infos.floats["error_px"])], infos["moves"]
+        actions = np.ascontiguousarray(actions, dtype=np.float32).reshape(self.action_space.shape)
+        seeds = None
+        if self._autoreset.any():
+            resetting = self._autoreset.tolist()
+            seeds = [self._seed_for(i) if r else None for i, r in enumerate(resetting)]
+        # one native call: the moves (and resets), the observations, the infos' buffers, and
+        # the rewards and ends (an arm reset by this step has reward 0 and goes on)
+        *obs, floats, flags, counts, first_none, rewards, ends = self._arms.step_batch(
+            seeds, actions.tobytes(), self._layout.bounds, *self._layout.rule
         )
-        # an arm reset by this step has reward 0 and goes on
-        rewards[self._autoreset] = 0.0
-        terminated &= ~self._autoreset
-        truncated &= ~self._autoreset
+        if seeds is not None:
+            self._build_ahead([i for i, s in enumerate(seeds) if s is not None])
+        infos = self._infos(floats, flags, counts, first_none)
+        ends = np.frombuffer(ends, dtype=np.bool_)
+        terminated, truncated = ends[: self.num_envs], ends[self.num_envs :]
         self._autoreset = terminated | truncated
-        return self._obs(), rewards, terminated, truncated, infos
+        rewards = np.frombuffer(rewards, dtype=np.float64)
+        return self._layout.obs(*obs, self.num_envs), rewards, terminated, truncated, infos
 
 
 class FlatObservation(gym.ObservationWrapper):
