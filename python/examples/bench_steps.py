@@ -50,21 +50,24 @@ def vector(envs, seconds, seed=0):
 
 def step_times(dt_s, steps=2000, episode=20, seed=0):
     """One native arm's move (``Arm.step``, no Python layer) timed one by one: random
-    actions, a reset every ``episode`` moves (not timed). Microseconds."""
+    actions, a reset every ``episode`` moves (built in place, timed apart). Microseconds:
+    ``(moves, resets)``."""
     from trn_softarm._native import Arm
 
     rng = np.random.default_rng(seed)
     arm = Arm("realistic", 1, dt_s, False, 0.0)
     arm.reset(seed)
-    times = []
+    times, resets = [], []
     for i in range(steps):
         action = rng.uniform(-1, 1, 5).astype(np.float32).tolist()
         t0 = time.perf_counter()
         arm.step(action)
         times.append(time.perf_counter() - t0)
         if i % episode == episode - 1:
+            t0 = time.perf_counter()
             arm.reset(seed + 1 + i)
-    return 1e6 * np.array(times)
+            resets.append(time.perf_counter() - t0)
+    return 1e6 * np.array(times), 1e6 * np.array(resets)
 
 
 def main():
@@ -128,18 +131,26 @@ def main():
         vs_ref = ref.get("sync" if kind == "native" else kind)
         lines.append(f"| {env} | {mode} | {r:,.0f} | {lo:,.0f} to {hi:,.0f} | {r / singles[env]:.2f} | "
                      + (f"{r / vs_ref:.3f} |" if vs_ref else "- |"))
+    episode = 20  # the default max_moves, which random actions reach
+    cores = min(n, os.cpu_count() or 1)
     lines += [
         "",
         "One arm's move alone (`Arm.step`, without the Python layer; 2,000 random moves, "
-        "microseconds): a vector step waits for its slowest arm.",
+        f"microseconds): a vector step waits for its slowest arm. The reset after every {episode}"
+        " moves (`Arm.reset`, built in place) is timed apart; the last column is the most"
+        f" {n} arms on {cores} cores can gain over one arm, {cores} x {episode} moves / ({episode}"
+        " moves + a reset): every core steps an arm, so each arm's resets take time from the"
+        " steps, while one arm's resets are built on a core it leaves idle (see below).",
         "",
-        "| plant | mean | p10 | median | p90 | p99 | worst |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        f"| plant | mean | p10 | median | p90 | p99 | worst | reset, mean | native x{n} / single at most |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, dt in [("SoftArm-v0", None)] + [(f"SoftArm-v0 dt_s={dt}", dt) for dt in a.fast_dt]:
-        t = step_times(dt)
+        t, r = step_times(dt, episode=episode)
         q = np.percentile(t, [10, 50, 90, 99])
-        lines.append(f"| {name} | {t.mean():.0f} | {q[0]:.0f} | {q[1]:.0f} | {q[2]:.0f} | {q[3]:.0f} | {t.max():.0f} |")
+        bound = cores * episode * t.mean() / (episode * t.mean() + r.mean())
+        lines.append(f"| {name} | {t.mean():.0f} | {q[0]:.0f} | {q[1]:.0f} | {q[2]:.0f} | {q[3]:.0f} | {t.max():.0f}"
+                     f" | {r.mean():.0f} | " + (f"{bound:.2f} |" if cores > 1 else "- |"))
     print("\n".join(lines))
     if a.out:
         with open(a.out, "w") as f:

@@ -126,7 +126,7 @@ class _InfoBatch:
             start = ends[src]
             ends[src] += width * self.n
             shape = {"floats": (self.n, width), "points": (self.n, width // 2, 2), "flags": (self.n, width)}.get(kind)
-            self.plan.append((key, "_" + key, src, start, ends[src], shape, kind == "maybe"))
+            self.plan.append((key, "_" + key, src, slice(start, ends[src]), shape, kind == "maybe"))
         self.sizes = (ends[0] * 8, ends[1], ends[2] * 8)
 
     def __call__(self, floats, flags, counts, first_none):
@@ -134,10 +134,10 @@ class _InfoBatch:
         if (len(floats), len(flags), len(counts)) != self.sizes:
             self._make_plan()
         buffers = (np.frombuffer(floats, np.float64), np.frombuffer(flags, np.bool_), np.frombuffer(counts, np.int64))
-        masks = np.ones((len(self.plan), self.n), dtype=np.bool_)
+        masks = list(np.ones((len(self.plan), self.n), dtype=np.bool_))
         infos = {}
-        for k, (key, mask_key, src, start, end, shape, maybe) in enumerate(self.plan):
-            array = buffers[src][start:end]
+        for k, (key, mask_key, src, part, shape, maybe) in enumerate(self.plan):
+            array = buffers[src][part]
             if shape is not None:
                 array = array.reshape(shape)
             elif maybe and first_none[k]:
