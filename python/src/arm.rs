@@ -722,7 +722,7 @@ impl Arm {
         Ok((w, h, n, PyBytes::new(py, &px)))
     }
 
-    /// `(reward, terminated, truncated)` of the last move: the reward minus the measured
+    /// `(reward, terminated, truncated)` of the last move: the reward is minus the measured
     /// error (pixels), or minus `diagonal` when a reading is not valid; terminated at an
     /// error within `tolerance_px`; truncated, when not terminated, at `max_moves` moves.
     fn outcome(&self, tolerance_px: f64, max_moves: u64, diagonal: f64) -> (f64, bool, bool) {
