@@ -72,14 +72,13 @@ class _Layout:
         )
         self.action_space = spaces.Box(-1.0, 1.0, shape=(joints,), dtype=np.float32)
         self.diagonal = float(np.hypot(w, h))
-        self.tolerance_px = float(tolerance_px)
-        self.max_moves = int(max_moves)
-        if np.isnan(self.tolerance_px):
+        tolerance, moves = float(tolerance_px), int(max_moves)
+        if np.isnan(tolerance):
             raise ValueError("tolerance_px is a number of pixels (below 0: never reached), got NaN")
-        if self.max_moves < 1:
+        if moves < 1:
             raise ValueError(f"max_moves is at least 1, got {max_moves!r}")
         # how the native arms score a move (Arm.outcome, ArmVec.step_batch)
-        self.rule = (self.tolerance_px, self.max_moves, self.diagonal)
+        self.rule = (tolerance, moves, self.diagonal)
 
     def obs(self, lights, status, target, arms=None):
         """An observation from the native bytes: one arm's (``Arm.observation_clipped``) or,
