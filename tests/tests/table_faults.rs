@@ -4,23 +4,27 @@
 //! for byte: a lost, duplicated, reordered, corrupted or truncated frame costs a repeat,
 //! never a wrong table.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use trn_bench::schedule::Plan;
 use trn_bench::{run, Command, RunSpec};
 use trn_protocol::bus::FaultConfig;
 
-fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-table-faults-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, removed when the test ends, passed or failed.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("trn-table-faults-")
+        .tempdir()
+        .expect("a temporary folder")
 }
 
-/// A checkpoint of tables that learned (a short training run, no faults), made once.
-fn trained(dir: &Path) -> PathBuf {
-    static MADE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+/// The bytes of a checkpoint of tables that learned (a short training run, no faults), made
+/// once for all the tests.
+fn trained() -> Vec<u8> {
+    static MADE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
     MADE.get_or_init(|| {
-        let path = dir.join("trained.ckpt");
+        let scratch = scratch();
+        let path = scratch.path().join("trained.ckpt");
         let mut spec = RunSpec::new(Command::Train, 100);
         spec.plan = Plan {
             snapshot_every: 0,
@@ -28,7 +32,7 @@ fn trained(dir: &Path) -> PathBuf {
         };
         spec.outputs.checkpoint = Some(path.clone());
         run::run_quietly(&spec).unwrap();
-        path
+        std::fs::read(&path).unwrap()
     })
     .clone()
 }
@@ -62,9 +66,11 @@ fn round_trip(ckpt: &Path, out: &Path, fd: bool, faults: &str) -> (Vec<u8>, u32)
 }
 
 fn matrix(fault: &str) {
-    let d = dir();
-    let ckpt = trained(&d);
-    let want = std::fs::read(&ckpt).unwrap();
+    let scratch = scratch();
+    let d = scratch.path();
+    let want = trained();
+    let ckpt = d.join("trained.ckpt");
+    std::fs::write(&ckpt, &want).unwrap();
     for fd in [false, true] {
         for rate in [0.01, 0.05] {
             let faults = format!("{fault}={rate}");

@@ -1,6 +1,6 @@
 //! Checkpoint files under a kill -9 at a random moment of the write, and bad files.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
@@ -8,11 +8,12 @@ use trn_bench::checkpoint_file;
 use trn_controller::checkpoint::{self, Provenance};
 use trn_controller::{Config, Controller};
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-ckpt-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-ckpt-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn controller(seed: u64) -> Box<Controller> {
@@ -62,7 +63,8 @@ fn checkpoint_writer_child() {
 /// or uses a fixed temporary name that can collide with another file.
 #[test]
 fn a_kill_during_a_write_leaves_the_old_or_the_new_checkpoint() {
-    let d = dir("kill");
+    let d_scratch = dir("kill");
+    let d = d_scratch.path();
     let path = d.join("run.ckpt");
     let bystander = d.join("run.tmp");
     std::fs::write(&bystander, b"an unrelated file").unwrap();
@@ -84,7 +86,7 @@ fn a_kill_during_a_write_leaves_the_old_or_the_new_checkpoint() {
         assert_eq!(std::fs::read(&bystander).unwrap(), b"an unrelated file");
     }
     // stray temporary files of killed writes are hidden names of the checkpoint's own
-    for entry in std::fs::read_dir(&d).unwrap() {
+    for entry in std::fs::read_dir(d).unwrap() {
         let name = entry.unwrap().file_name().to_string_lossy().into_owned();
         assert!(
             name == "run.ckpt" || name == "run.tmp" || name.starts_with(".run.ckpt.tmp-"),
@@ -133,7 +135,8 @@ fn pair_writer_child() {
 /// then the `.sim` over the old one, did).
 #[test]
 fn a_kill_during_a_pair_write_leaves_a_pair_that_continues() {
-    let d = dir("pair");
+    let d_scratch = dir("pair");
+    let d = d_scratch.path();
     let path = d.join("run.ckpt");
     checkpoint_file::save_with_state(&controller(1), Provenance::CUSTOM, &path, sim_state(0))
         .unwrap();
@@ -154,12 +157,12 @@ fn a_kill_during_a_pair_write_leaves_a_pair_that_continues() {
         .unwrap();
     assert!(!trn_bench::sim_state::previous_beside(&path).exists());
     eprintln!("{kept} of 16 kills came between a pair's two writes");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn a_checkpoint_of_another_configuration_is_refused_unless_allowed() {
-    let d = dir("config");
+    let d_scratch = dir("config");
+    let d = d_scratch.path();
     let path = d.join("a.ckpt");
     let paper = Provenance::of(
         trn_controller::presets::Preset::Paper,
@@ -196,7 +199,8 @@ fn endless_and_odd_files_are_refused_without_reading_them_all() {
     let e = checkpoint_file::load(&mut c, Path::new("/dev/zero"), Provenance::CUSTOM, false)
         .unwrap_err();
     assert!(e.to_string().contains("not a regular file"), "{e}");
-    let d = dir("odd");
+    let d_scratch = dir("odd");
+    let d = d_scratch.path();
     let long = d.join("long.ckpt");
     std::fs::write(&long, vec![0u8; checkpoint::MAX_SIZE + 10]).unwrap();
     let e = checkpoint_file::load(&mut c, &long, Provenance::CUSTOM, false).unwrap_err();
@@ -206,7 +210,7 @@ fn endless_and_odd_files_are_refused_without_reading_them_all() {
                 .contains(&(checkpoint::MAX_SIZE + 10).to_string()),
         "the file's real size: {e}"
     );
-    let e = checkpoint_file::save(&c, Provenance::CUSTOM, &d).unwrap_err();
+    let e = checkpoint_file::save(&c, Provenance::CUSTOM, d).unwrap_err();
     assert!(e.to_string().contains("directory"), "{e}");
     let check = |p: &Path| trn_bench::output::check_path(p, trn_bench::output::Kind::Json);
     assert!(check(Path::new("/nonexistent/dir/x.json")).is_err());

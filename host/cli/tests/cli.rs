@@ -1,7 +1,6 @@
 //! The `trn` command line: the main job end to end, checkpoints, and bad input (a clear
 //! message and a non-zero exit, never a panic).
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn trn(args: &[&str]) -> Output {
@@ -11,10 +10,12 @@ fn trn(args: &[&str]) -> Output {
         .expect("trn runs")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("trn-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A folder of the test's own, removed when the test ends, passed or failed.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("trn-cli-")
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn fails_with(out: &Output, needle: &str) {
@@ -43,6 +44,8 @@ const SMALL: [&str; 7] = [
 
 #[test]
 fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let (ckpt, report, plot) = (tmp("a.ckpt"), tmp("a.json"), tmp("a.png"));
     let mut args = vec!["train"];
     args.extend(SMALL);
@@ -172,6 +175,8 @@ fn train_writes_report_plot_and_checkpoint_and_eval_reads_it() {
 
 #[test]
 fn missing_and_malformed_configs_are_clear_errors() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let out = trn(&["train", "--config", "/nonexistent/sim.toml", "--quiet"]);
     fails_with(&out, "/nonexistent/sim.toml");
     let bad = tmp("bad.toml");
@@ -189,6 +194,8 @@ fn missing_and_malformed_configs_are_clear_errors() {
 
 #[test]
 fn corrupt_and_foreign_checkpoints_are_rejected() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let f = tmp("garbage.ckpt");
     std::fs::write(&f, b"TRNC not really a checkpoint").unwrap();
     fails_with(
@@ -208,6 +215,8 @@ fn corrupt_and_foreign_checkpoints_are_rejected() {
 
 #[test]
 fn a_bus_that_does_not_exist_fails_and_keeps_the_last_checkpoint() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let ckpt = tmp("keep.ckpt");
     std::fs::write(&ckpt, b"previous checkpoint").unwrap();
     let c = ckpt.to_str().unwrap();
@@ -280,6 +289,8 @@ fn a_snapshot_beyond_the_held_out_set_is_refused() {
 /// and the file keeps its contents.
 #[test]
 fn an_output_folder_that_is_a_file_is_named() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let file = tmp("out-is-a-file");
     std::fs::write(&file, b"kept").unwrap();
     let f = file.to_str().unwrap();
@@ -323,6 +334,8 @@ fn an_output_folder_that_is_a_file_is_named() {
 /// used to win with both runs exiting 0; nothing runs and the first's file is untouched.
 #[test]
 fn a_second_writer_of_the_same_output_is_refused() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let report = tmp("locked-report.json");
     std::fs::write(&report, b"the first run's").unwrap();
     let lock = |path: &std::path::Path| {
@@ -363,6 +376,8 @@ fn a_second_writer_of_the_same_output_is_refused() {
 /// the mean's legend names more trials than the run has.
 #[test]
 fn a_plot_without_snapshots_says_so() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let svg = tmp("no-snapshots.svg");
     let out = trn(&[
         "train",

@@ -2,15 +2,16 @@
 //! boundary, writes the report (marked interrupted) and a checkpoint that `--continue`
 //! resumes, and exits 130, 143 or 129; a second signal ends it at once.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-interrupt-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-interrupt-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn s(p: &Path) -> &str {
@@ -76,7 +77,8 @@ fn json(p: &Path) -> serde_json::Value {
 /// when an interrupt loses the run or its checkpoint, or the continued run restarts.
 #[test]
 fn sigint_keeps_what_was_done_and_continue_resumes_it() {
-    let d = dir("int");
+    let d_scratch = dir("int");
+    let d = d_scratch.path();
     let (report, ckpt) = (d.join("r.json"), d.join("net.ckpt"));
     let child = long_training(&report, &ckpt);
     std::thread::sleep(Duration::from_secs(3));
@@ -139,7 +141,8 @@ fn sigint_keeps_what_was_done_and_continue_resumes_it() {
 /// once without waiting for the trial boundary.
 #[test]
 fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
-    let d = dir("term");
+    let d_scratch = dir("term");
+    let d = d_scratch.path();
     let (report, ckpt) = (d.join("r.json"), d.join("net.ckpt"));
     let child = long_training(&report, &ckpt);
     std::thread::sleep(Duration::from_secs(2));
@@ -178,7 +181,8 @@ fn sigterm_exits_143_and_a_second_signal_ends_at_once() {
 /// word.
 #[test]
 fn a_second_interrupt_quits_a_study_at_once_and_says_so() {
-    let d = dir("study-twice");
+    let d_scratch = dir("study-twice");
+    let d = d_scratch.path();
     let out_dir = d.join("out");
     let mut child = start(&[
         "compare",
@@ -216,7 +220,8 @@ fn a_second_interrupt_quits_a_study_at_once_and_says_so() {
 /// temporary file is removed by the next run that writes there.
 #[test]
 fn a_killed_run_keeps_its_last_periodic_checkpoint() {
-    let d = dir("kill");
+    let d_scratch = dir("kill");
+    let d = d_scratch.path();
     let ckpt = d.join("net.ckpt");
     let stale = d.join(".net.ckpt.tmp-999999999-0");
     std::fs::write(&stale, b"left by a killed writer").unwrap();
@@ -271,7 +276,8 @@ fn a_killed_run_keeps_its_last_periodic_checkpoint() {
 /// and marked interrupted, where the first signal used to wait for the whole set.
 #[test]
 fn an_interrupt_while_the_held_out_set_is_drawn_ends_the_run() {
-    let d = dir("held-out");
+    let d_scratch = dir("held-out");
+    let d = d_scratch.path();
     let report = d.join("r.json");
     let child = start(&[
         "train",
@@ -299,7 +305,8 @@ fn an_interrupt_while_the_held_out_set_is_drawn_ends_the_run() {
 /// takes seconds before its first run) ends it there and says so, with nothing written.
 #[test]
 fn an_interrupt_while_a_study_is_built_ends_it_before_any_run() {
-    let d = dir("study-build");
+    let d_scratch = dir("study-build");
+    let d = d_scratch.path();
     let values: Vec<String> = (0..100_000)
         .map(|i| format!("{}", 0.3 + i as f64 * 1e-6))
         .collect();
@@ -320,5 +327,4 @@ fn an_interrupt_while_a_study_is_built_ends_it_before_any_run() {
     assert_eq!(out.status.code(), Some(130), "{err}");
     assert!(err.contains("while the study was being built"), "{err}");
     assert!(!out_dir.exists(), "something was written");
-    let _ = std::fs::remove_dir_all(&d);
 }

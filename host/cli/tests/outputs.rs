@@ -2,7 +2,7 @@
 //! an input or another output, never a device or a symlink, written whole or not at all,
 //! errors naming the user's path; counts bounded; a full disk loses nothing.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn trn(args: &[&str]) -> Output {
@@ -26,11 +26,12 @@ fn trn_on_a_full_disk(blocks: u32, args: &[&str]) -> Output {
         .expect("sh runs")
 }
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-outputs-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-outputs-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn s(p: &Path) -> &str {
@@ -70,7 +71,8 @@ fn train(extra: &[&str]) -> Output {
 /// configuration, the checkpoint read. Fails when an output replaces an input.
 #[test]
 fn an_output_never_replaces_an_input() {
-    let d = dir("inputs");
+    let d_scratch = dir("inputs");
+    let d = d_scratch.path();
     let cfg = d.join("my.json"); // any name: a configuration is any TOML file
     std::fs::write(&cfg, DEFAULT_TOML).unwrap();
     let before = std::fs::read(&cfg).unwrap();
@@ -139,7 +141,8 @@ fn an_output_never_replaces_an_input() {
 /// before the run; nothing is created.
 #[test]
 fn devices_symlinks_and_wrong_kinds_are_refused_for_every_output() {
-    let d = dir("kinds");
+    let d_scratch = dir("kinds");
+    let d = d_scratch.path();
     let real = d.join("real.json");
     std::fs::write(&real, "{}").unwrap();
     let link = d.join("link.json");
@@ -157,12 +160,12 @@ fn devices_symlinks_and_wrong_kinds_are_refused_for_every_output() {
         &train(&["--plot", s(&d.join("out.txt"))]),
         "--plot writes a .png or .svg file",
     );
-    refused(&train(&["--report", s(&d)]), "is a directory");
+    refused(&train(&["--report", s(d)]), "is a directory");
     refused(
         &train(&["--report", s(&d.join("r.txt"))]),
         "--report writes a .json file",
     );
-    refused(&train(&["--checkpoint-out", s(&d)]), "is a directory");
+    refused(&train(&["--checkpoint-out", s(d)]), "is a directory");
     assert_eq!(
         std::fs::read(&real).unwrap(),
         b"{}",
@@ -175,7 +178,8 @@ fn devices_symlinks_and_wrong_kinds_are_refused_for_every_output() {
 /// file, never a truncated one: the candump log, the report, the plot.
 #[test]
 fn a_full_disk_names_the_file_and_leaves_the_previous_one() {
-    let d = dir("full");
+    let d_scratch = dir("full");
+    let d = d_scratch.path();
     let log = d.join("bus.log");
     let out = trn_on_a_full_disk(
         64,
@@ -221,7 +225,7 @@ fn a_full_disk_names_the_file_and_leaves_the_previous_one() {
         "a debug dump: {err}"
     );
     assert_eq!(std::fs::read(&png).unwrap(), b"the previous plot");
-    let leftovers: Vec<_> = std::fs::read_dir(&d)
+    let leftovers: Vec<_> = std::fs::read_dir(d)
         .unwrap()
         .flatten()
         .map(|e| e.file_name())

@@ -2,7 +2,11 @@
 
 #[test]
 fn sim_pictures_writes_both_pngs() {
-    let dir = std::env::temp_dir().join(format!("trn-pictures-{}", std::process::id()));
+    let scratch = tempfile::Builder::new()
+        .prefix("trn-pictures-")
+        .tempdir()
+        .expect("a temporary folder");
+    let dir = scratch.path().join("pictures");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_sim-pictures"))
         .args(["--out", dir.to_str().unwrap(), "--seed", "2"])
         .output()

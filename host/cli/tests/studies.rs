@@ -16,11 +16,12 @@ fn trn(args: &[&str]) -> Output {
         .expect("trn runs")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-cli-studies-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-cli-studies-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn ok(out: &Output) -> String {
@@ -86,13 +87,14 @@ fn compare(dir: &Path, name: &str, extra: &[&str]) -> Output {
 
 #[test]
 fn jobs_and_merged_shards_give_the_json_of_one_worker() {
-    let dir = scratch("jobs");
-    let one = compare(&dir, "one", &["--jobs", "1"]);
+    let dir_scratch = scratch("jobs");
+    let dir = dir_scratch.path();
+    let one = compare(dir, "one", &["--jobs", "1"]);
     ok(&one);
-    ok(&compare(&dir, "two", &["--jobs", "2"]));
+    ok(&compare(dir, "two", &["--jobs", "2"]));
     assert_eq!(json(&dir.join("one.json")), json(&dir.join("two.json")));
     for shard in ["0/2", "1/2"] {
-        let out = compare(&dir, "shards", &["--shard", shard]);
+        let out = compare(dir, "shards", &["--shard", shard]);
         let err = ok(&out);
         assert!(
             err.contains(&format!("shard {shard}: 2 runs written")),
@@ -106,7 +108,7 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
     args.extend([
         "2",
         "--out",
-        s(&dir),
+        s(dir),
         "--shard",
         "0/2",
         "--report",
@@ -126,7 +128,7 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
     assert_eq!(out.stdout, one.stdout, "the merge prints the study's table");
     // a missing shard is named
     let lone = dir.join("lone");
-    ok(&compare(&dir, "lone", &["--shard", "1/2"]));
+    ok(&compare(dir, "lone", &["--shard", "1/2"]));
     let out = trn(&["merge", s(&lone)]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -190,13 +192,13 @@ fn jobs_and_merged_shards_give_the_json_of_one_worker() {
         "{err}"
     );
     assert_eq!(std::fs::read(&runs[0]).unwrap(), before);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// 6 runs of about a second, one worker: SIGINT after the second run's file appears.
 #[test]
 fn a_study_stopped_by_sigint_resumes_without_redoing_finished_runs() {
-    let dir = scratch("sigint");
+    let dir_scratch = scratch("sigint");
+    let dir = dir_scratch.path();
     let study = dir.join("six.toml");
     std::fs::write(
         &study,
@@ -208,7 +210,7 @@ fn a_study_stopped_by_sigint_resumes_without_redoing_finished_runs() {
         "study",
         s(&study),
         "--out",
-        s(&dir),
+        s(dir),
         "--runs",
         s(&runs),
         "--jobs",
@@ -273,15 +275,15 @@ fn a_study_stopped_by_sigint_resumes_without_redoing_finished_runs() {
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| six | 60 |"), "{table}");
     assert!(dir.join("six.json").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn bad_study_input_is_a_usage_error_naming_it() {
-    let dir = scratch("bad");
+    let dir_scratch = scratch("bad");
+    let dir = dir_scratch.path();
     let study = dir.join("bad.toml");
     std::fs::write(&study, "name = \"bad\"\nseeds = [100]\n[[axis]]\nkey = \"realism.load_widht_gain\"\nvalues = [0.1]\n").unwrap();
-    let out = trn(&["study", s(&study), "--out", s(&dir)]);
+    let out = trn(&["study", s(&study), "--out", s(dir)]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
@@ -293,12 +295,11 @@ fn bad_study_input_is_a_usage_error_naming_it() {
         assert_eq!(out.status.code(), Some(2));
         assert!(String::from_utf8_lossy(&out.stderr).contains("--shard"));
     }
-    let out = trn(&["compare", "--configs", "projekt", "--out", s(&dir)]);
+    let out = trn(&["compare", "--configs", "projekt", "--out", s(dir)]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
         err.contains("\"projekt\"") && err.contains("no-trial-secant"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

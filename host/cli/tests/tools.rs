@@ -2,7 +2,6 @@
 //! a report says what produced it (provenance), `--csv` has a row per trial, `trn decode`
 //! decodes every frame of a training's candump log, and the live view refuses early.
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn run(bin: &str, args: &[&str]) -> Output {
@@ -12,10 +11,12 @@ fn run(bin: &str, args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("trn-tools-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A folder of the test's own, removed when the test ends, passed or failed.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("trn-tools-")
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn stdout(o: &Output) -> String {
@@ -48,6 +49,8 @@ fn each_binarys_help_says_what_that_binary_does() {
 
 #[test]
 fn a_training_log_decodes_whole_and_the_report_says_what_produced_it() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let (log, csv, report) = (tmp("bus.log"), tmp("trials.csv"), tmp("run.json"));
     let trn = env!("CARGO_BIN_EXE_trn");
     let args = [
@@ -133,6 +136,8 @@ fn a_training_log_decodes_whole_and_the_report_says_what_produced_it() {
 
 #[test]
 fn the_law_never_takes_the_presets_place_in_a_report() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let report = tmp("broyden.json");
     let r = report.to_str().unwrap();
     stdout(&run(
@@ -166,6 +171,8 @@ fn the_law_never_takes_the_presets_place_in_a_report() {
 
 #[test]
 fn the_live_view_without_its_python_package_is_refused_before_the_run() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let save = tmp("run.rrd");
     let out = Command::new(env!("CARGO_BIN_EXE_trn"))
         .args(["train", "--quiet", "--rerun-save", save.to_str().unwrap()])
@@ -192,6 +199,8 @@ fn the_live_view_without_its_python_package_is_refused_before_the_run() {
 
 #[test]
 fn study_results_carry_their_provenance() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let trn = env!("CARGO_BIN_EXE_trn");
     let cmp = tmp("compare.json");
     let c = cmp.to_str().unwrap();
@@ -247,6 +256,8 @@ fn study_results_carry_their_provenance() {
 
 #[test]
 fn trn_model_writes_the_arms_description() {
+    let scratch = scratch();
+    let tmp = |name: &str| scratch.path().join(name);
     let trn = env!("CARGO_BIN_EXE_trn");
     let cfg = trn_plant::SimConfig::ideal();
     let urdf = stdout(&run(trn, &["model", "--config", "ideal"]));

@@ -28,8 +28,11 @@ fn lists_of_the_wrong_length_are_refused() {
 /// only a few hundred characters of the input.
 #[test]
 fn huge_and_garbage_files_give_short_errors() {
-    let dir = std::env::temp_dir().join(format!("trn-config-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new()
+        .prefix("trn-config-")
+        .tempdir()
+        .expect("a temporary folder");
+    let dir = scratch.path();
     let huge = dir.join("huge.toml");
     std::fs::write(&huge, vec![b'x'; 3 << 20]).unwrap();
     let e = SimConfig::load(&huge).unwrap_err().to_string();

@@ -1,7 +1,7 @@
 //! Life-long learning (issue 17): why grasps collapsed under wear, the shortened scenario
 //! that fails if they collapse again, and checkpoints that continue a run exactly.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -11,10 +11,12 @@ use trn_bench::{run, sim_state, Command, LabError, Report, RunSpec};
 use trn_plant::{Plant, SimConfig};
 use trn_studies::lifelong::{self, LifelongSpec, ARMS};
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-lifelong-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-lifelong-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 /// Wears `plant` by `moves` random moves over the whole pressure range.
@@ -144,7 +146,8 @@ fn lifelong_args(out: &Path) -> LifelongSpec {
 /// targets one hard target near the workspace's edge moves a snapshot by 0.3x).
 #[test]
 fn grasps_keep_working_under_drift_and_wear() {
-    let a = lifelong_args(&scratch("scenario"));
+    let dir_scratch = scratch("scenario");
+    let a = lifelong_args(dir_scratch.path());
     let arm = ARMS.iter().find(|a| a.key == "lifelong").unwrap();
     let r = run::run_quietly(&lifelong::arm_run(&a, arm).unwrap()).unwrap();
     let curve = lifelong::Curve {
@@ -237,7 +240,8 @@ fn curve(r: &Report) -> Vec<(usize, Vec<u32>)> {
 /// the network's 120 trials.
 #[test]
 fn an_interrupted_run_continues_bit_for_bit() {
-    let dir = scratch("continue");
+    let dir_scratch = scratch("continue");
+    let dir = dir_scratch.path();
     let ck = dir.join("c");
     let whole = run::run_quietly(&spec(true, 120)).unwrap();
     let first = run::run_quietly(&saving(spec(true, 60), &ck)).unwrap();
@@ -254,7 +258,8 @@ fn an_interrupted_run_continues_bit_for_bit() {
 /// snapshots numbered on from the trials it learned.
 #[test]
 fn a_checkpoint_continues_its_schedule() {
-    let dir = scratch("schedule");
+    let dir_scratch = scratch("schedule");
+    let dir = dir_scratch.path();
     let ck = dir.join("c");
     run::run_quietly(&saving(spec(false, 60), &ck)).unwrap();
     let r = run::run_quietly(&from(spec(false, 30), &ck, false)).unwrap();
@@ -267,7 +272,8 @@ fn a_checkpoint_continues_its_schedule() {
 /// the change is allowed.
 #[test]
 fn a_checkpoint_of_another_plant_is_refused() {
-    let dir = scratch("plant");
+    let dir_scratch = scratch("plant");
+    let dir = dir_scratch.path();
     let ck = dir.join("c");
     run::run_quietly(&saving(spec(false, 5), &ck)).unwrap();
     let mut s = from(spec(false, 5), &ck, false)
@@ -286,7 +292,8 @@ fn a_checkpoint_of_another_plant_is_refused() {
 /// controller checkpoint beside it, is corrupt, or is missing.
 #[test]
 fn a_mismatched_corrupt_or_missing_simulator_checkpoint_is_refused() {
-    let dir = scratch("refuse");
+    let dir_scratch = scratch("refuse");
+    let dir = dir_scratch.path();
     let (a, b) = (dir.join("a"), dir.join("b"));
     run::run_quietly(&saving(spec(false, 31), &a)).unwrap();
     run::run_quietly(&saving(spec(false, 30), &b)).unwrap();

@@ -34,11 +34,12 @@ name = "width"
 values = [0.05, 0.2]
 "#;
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("trn-studies-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-studies-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn tiny(dir: &Path) -> Study {
@@ -88,7 +89,8 @@ fn json_of(ran: study::Ran) -> Value {
 
 #[test]
 fn the_grid_is_rows_times_axis_values_times_seeds() {
-    let s = tiny(&scratch("grid"));
+    let dir_scratch = scratch("grid");
+    let s = tiny(dir_scratch.path());
     let names: Vec<(&str, u64)> = s
         .jobs
         .iter()
@@ -149,8 +151,9 @@ fn an_interrupt_while_the_plant_files_are_written_starts_no_run() {
         at,
         asked: AtomicUsize::new(0),
     };
-    let dir = scratch("plants-stop");
-    let s = tiny(&dir);
+    let dir_scratch = scratch("plants-stop");
+    let dir = dir_scratch.path();
+    let s = tiny(dir);
     let named: Vec<PathBuf> = s.plants.iter().map(|p| p.path.clone()).collect();
     assert_eq!(named.len(), 4, "one plant per row and width");
     let written = || named.iter().filter(|p| p.exists()).count();
@@ -176,7 +179,6 @@ fn an_interrupt_while_the_plant_files_are_written_starts_no_run() {
     .unwrap();
     assert!(!ran.interrupted && ran.ran == 8);
     assert_eq!(written(), 4);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Building a study asks whether to stop before each configuration (of the grid's
@@ -193,7 +195,8 @@ fn an_interrupt_while_a_study_is_built_ends_it_before_anything_runs() {
         ratios.join(", ")
     );
     let file = StudyFile::parse(&grid, "grid").unwrap();
-    let dir = scratch("build-stop");
+    let dir_scratch = scratch("build-stop");
+    let dir = dir_scratch.path();
     let plants = dir.join("plants");
     let build = |at: usize| {
         let asked = AtomicUsize::new(0);
@@ -220,14 +223,14 @@ fn an_interrupt_while_a_study_is_built_ends_it_before_anything_runs() {
         "asked {asked} times for 2,000 configurations"
     );
     assert!(!plants.exists(), "building a study writes no file");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `--jobs 2` gives the runs and the table of `--jobs 1`, and so do two shards merged.
 #[test]
 fn parallel_and_sharded_studies_give_the_results_of_one_worker() {
-    let dir = scratch("parallel");
-    let s = tiny(&dir);
+    let dir_scratch = scratch("parallel");
+    let dir = dir_scratch.path();
+    let s = tiny(dir);
     let one = study::run(&s, &opts(&dir.join("one"), 1), &trn_bench::Unobserved, None).unwrap();
     let two = study::run(&s, &opts(&dir.join("two"), 2), &trn_bench::Unobserved, None).unwrap();
     let (one, two) = (json_of(one), json_of(two));
@@ -267,7 +270,6 @@ fn parallel_and_sharded_studies_give_the_results_of_one_worker() {
     foreign[0].study.digest = "0".repeat(16);
     let err = study::finish(foreign).unwrap_err().to_string();
     assert!(err.contains("two studies"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Stops the study after `after` runs finished; counts what it saw.
@@ -305,8 +307,9 @@ impl Watch for StopAfter {
 /// the table of a study that was never interrupted.
 #[test]
 fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
-    let dir = scratch("resume");
-    let s = tiny(&dir);
+    let dir_scratch = scratch("resume");
+    let dir = dir_scratch.path();
+    let s = tiny(dir);
     let runs = dir.join("runs");
     let stop = StopAfter::new(4);
     let first = study::run(&s, &opts(&runs, 1), &stop, None).unwrap();
@@ -374,7 +377,6 @@ fn an_interrupted_study_resumes_without_redoing_its_finished_runs() {
     )
     .unwrap();
     assert_eq!(json_of(resumed), json_of(fresh));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `--first-seed` moves a study's seeds and keeps their count (`--seeds`, else the file's
@@ -415,8 +417,9 @@ fn the_first_seed_moves_the_seeds_and_keeps_their_count() {
 }
 
 fn refused(text: &str, over: &Overrides) -> String {
-    let dir = scratch("refused");
-    match StudyFile::parse(text, "t.toml").and_then(|f| f.study(Path::new("."), over, Some(&dir))) {
+    let dir_scratch = scratch("refused");
+    let dir = dir_scratch.path();
+    match StudyFile::parse(text, "t.toml").and_then(|f| f.study(Path::new("."), over, Some(dir))) {
         Ok(_) => panic!("accepted:\n{text}"),
         Err(e) => e.to_string(),
     }
@@ -567,9 +570,10 @@ controller = { "*.map_step" = 0.7, "stage1.dv_noise" = 2, "stage2.max_fine_moves
 key = "controller.stage2.trial_secant"
 values = [0.0, 0.5]
 "#;
-    let dir = scratch("controller-keys");
+    let dir_scratch = scratch("controller-keys");
+    let dir = dir_scratch.path();
     let study = StudyFile::parse(text, "keys.toml")
-        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(dir)))
         .unwrap();
     assert_eq!(study.jobs.len(), 4);
     let profile = study.jobs[0].spec.profile_config();
@@ -600,10 +604,9 @@ values = [0.0, 0.5]
         "name = \"p\"\nseeds = [1]\n[[row]]\nkey = \"plain\"\n",
         "p.toml",
     )
-    .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+    .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(dir)))
     .unwrap();
     assert!(plain.jobs[0].spec.controller_override.is_none());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A controller key that is not a field, of the wrong type, or naming a whole table:
@@ -657,21 +660,22 @@ fn a_snapshot_beyond_the_held_out_set_is_refused() {
         e.contains("snapshot_targets 6 is more than eval_targets 5"),
         "{e}"
     );
-    let dir = scratch("snapshot-5");
+    let dir_scratch = scratch("snapshot-5");
+    let dir = dir_scratch.path();
     StudyFile::parse(&file(5), "t.toml")
-        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(&dir)))
+        .and_then(|f| f.study(Path::new("."), &Overrides::default(), Some(dir)))
         .expect("as many as the held-out set");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A study's folder whose path runs through a file is refused naming that file, before
 /// anything runs, and the file is left as it was.
 #[test]
 fn a_run_folder_under_a_file_is_refused_naming_the_file() {
-    let dir = scratch("folder-is-a-file");
+    let dir_scratch = scratch("folder-is-a-file");
+    let dir = dir_scratch.path();
     let file = dir.join("results");
     std::fs::write(&file, b"kept").unwrap();
-    let s = tiny(&dir);
+    let s = tiny(dir);
     for runs in [file.clone(), file.join("runs")] {
         let e = match study::run(&s, &opts(&runs, 1), &trn_bench::Unobserved, None) {
             Ok(_) => panic!("a run folder under a file was accepted"),
@@ -683,5 +687,4 @@ fn a_run_folder_under_a_file_is_refused_naming_the_file() {
         );
     }
     assert_eq!(std::fs::read(&file).unwrap(), b"kept");
-    let _ = std::fs::remove_dir_all(&dir);
 }
