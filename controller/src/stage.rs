@@ -474,6 +474,36 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 p_fine[m] = tr.p_last[m] + gain * (p_fine[m] - tr.p_last[m]);
             }
         }
+        let g = self.cfg.fine_gain;
+        if g > 0.0 && !tr.learn {
+            // experiment (StageConfig::fine_gain)
+            for m in 0..M {
+                p_fine[m] = tr.p_last[m] + g * (p_fine[m] - tr.p_last[m]);
+            }
+        }
+        let probe = self.cfg.probe;
+        if probe > 0.0 && tr.learn && tr.p_target.is_none() {
+            // experiment (StageConfig::probe): a push across the step, its length a fraction
+            // of the step's, its direction from the learning step and the move's index
+            let len = distance(&p_fine, &tr.p_last);
+            let mut dir = [0.0f32; M];
+            let mut h = ((t as u64) << 8) ^ tr.outcome.fine_moves as u64 ^ 0x9E37_79B9_7F4A_7C15;
+            for x in dir.iter_mut() {
+                // splitmix64
+                h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = h;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                z ^= z >> 31;
+                *x = (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0;
+            }
+            let norm = libm::sqrtf(dir.iter().map(|x| x * x).sum::<f32>());
+            if norm > 0.0 {
+                for m in 0..M {
+                    p_fine[m] += probe * len * dir[m] / norm;
+                }
+            }
+        }
         let p_fine = rules::clamp(&p_fine, limit);
         tr.p_prev = tr.p_last;
         tr.v_prev = *v;

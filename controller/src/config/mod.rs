@@ -196,6 +196,15 @@ pub struct StageConfig {
     /// deviation, off in every preset; the study `studies/precision.toml` measures it
     /// ([`crate::stage`]).
     pub step_noise: f32,
+    /// Experiment (branch exp-probe): persistent excitation of the Jacobian rule (8.15).
+    /// Each fine move of an unsupervised learning trial gets a pseudo-random push of this
+    /// fraction of its own length, in a direction drawn from the learning step and the move's
+    /// index, so the secants the rule learns from cover every direction of `dp` and not only
+    /// the error's; `0` = off (the paper's fine move, 8.14).
+    pub probe: f32,
+    /// Experiment (branch exp-probe): a mature trial's fine steps (8.14) lengthened by this
+    /// factor (`1` = the paper's step; `0` is read as 1).
+    pub fine_gain: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -415,6 +424,8 @@ impl Config {
             trial_secant: 0.0,
             map_step: 0.0,
             step_noise: 0.0,
+            probe: 0.0,
+            fine_gain: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -535,6 +546,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     trial_secant: 0.0,
     map_step: 0.0,
     step_noise: 0.0,
+    probe: 0.0,
+    fine_gain: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
