@@ -8,7 +8,8 @@
 # seed 1 project preset on CAN 2.0, seed 100 paper preset on CAN 2.0, seed 101 project
 # preset on CAN FD; then the conformance suite against the firmware; then tables written in
 # and read out through the firmware's store, in the f32 build and in the compact build; then
-# the watchdog resetting a firmware that stopped feeding it.
+# the watchdog resetting a firmware that stopped feeding it. The checks run in two lanes at
+# once (see the end), each lane's output printed when both have ended.
 #   scripts/cross/pil.sh [TRIALS]      scripts/cross/pil.sh --build-only
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
@@ -20,20 +21,30 @@ out="$root/out/pil"
 mkdir -p "$out"
 cd "$root"
 cargo build --quiet --release -p trn-sim --bin trn
-status=0
-for case in "1 project" "100 paper" "101 project --fd"; do
-    read -r seed preset fd <<< "$case"
-    name="seed$seed-$preset${fd:+-fd}"
-    args=(train --seed "$seed" --preset "$preset" ${fd:+"$fd"} --trials "$trials" --eval-targets 5 --grasps 3 --quiet)
-    start=$SECONDS
-    TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn "${args[@]}" --bus slcan:qemu --report "$out/$name-firmware.json" > "$out/$name-firmware.txt"
-    pil_s=$((SECONDS - start))
-    ./target/release/trn "${args[@]}" --bus inproc --report "$out/$name-host.json" > "$out/$name-host.txt"
-    # the firmware prints its mark at every session's end: the largest
-    stack=$(sed -n 's/^trn-firmware pil: stack high-water mark: \([0-9]*\) bytes/\1/p' "$out/$name-firmware.txt" | sort -n | tail -n 1)
-    echo "pil $name: firmware stack high-water mark ${stack:-unknown} bytes (limit 8192)"
-    [ -n "$stack" ] && [ "$stack" -le 8192 ] || { echo "pil $name: FAIL: stack high-water mark" >&2; status=1; }
-    python3 - "$out/$name-firmware.json" "$out/$name-host.json" "$trials" "$pil_s" "$name" <<'PY' || status=1
+# every image the checks run, built before they start (the two lanes below share cargo's lock)
+compact_elf=$(build_firmware pil-compact thumbv7em-none-eabihf pil,compact --no-default-features)
+watchdog_elf=$(build_firmware pil-watchdog-test thumbv7em-none-eabihf pil,watchdog-test)
+# the three cases: the firmware's learning curves against the host build's
+curves_check() {
+    local status=0 case seed preset fd name args start pil_s stack
+    for case in "1 project" "100 paper" "101 project --fd"; do
+        read -r seed preset fd <<< "$case"
+        name="seed$seed-$preset${fd:+-fd}"
+        args=(train --seed "$seed" --preset "$preset" ${fd:+"$fd"} --trials "$trials" --eval-targets 5 --grasps 3 --quiet)
+        start=$SECONDS
+        # (a function run under `||` does not stop at a failed command: each run says so itself,
+        # and no report of an earlier run is left to be compared)
+        rm -f "$out/$name-firmware.json" "$out/$name-host.json"
+        TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn "${args[@]}" --bus slcan:qemu --report "$out/$name-firmware.json" > "$out/$name-firmware.txt" ||
+            { echo "pil $name: FAIL: the run on the firmware" >&2; status=1; continue; }
+        pil_s=$((SECONDS - start))
+        ./target/release/trn "${args[@]}" --bus inproc --report "$out/$name-host.json" > "$out/$name-host.txt" ||
+            { echo "pil $name: FAIL: the run on the host build" >&2; status=1; continue; }
+        # the firmware prints its mark at every session's end: the largest
+        stack=$(sed -n 's/^trn-firmware pil: stack high-water mark: \([0-9]*\) bytes/\1/p' "$out/$name-firmware.txt" | sort -n | tail -n 1)
+        echo "pil $name: firmware stack high-water mark ${stack:-unknown} bytes (limit 8192)"
+        [ -n "$stack" ] && [ "$stack" -le 8192 ] || { echo "pil $name: FAIL: stack high-water mark" >&2; status=1; }
+        python3 - "$out/$name-firmware.json" "$out/$name-host.json" "$trials" "$pil_s" "$name" <<'PY' || status=1
 import json, sys
 a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
 worst, ok = 0.0, True
@@ -53,13 +64,21 @@ print(f"pil {sys.argv[5]}: {sys.argv[3]} trials per network on the firmware in Q
       f"final error {a['final_error_px']:.4f} px firmware, {b['final_error_px']:.4f} px host")
 sys.exit(0 if ok else 1)
 PY
-done
+    done
+    return $status
+}
 # the conformance suite against the firmware (protocol/SPEC.md 3, 3.2), over the same SLCAN link
-TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 100 > "$out/conformance.txt" || status=1
-echo "pil conformance (firmware in QEMU): $(tail -n 1 "$out/conformance.txt")"
-# the Broyden servo baseline on the same firmware image (SessionConfig law 1)
-TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 101 --controller broyden > "$out/conformance-broyden.txt" || status=1
-echo "pil conformance, Broyden servo (firmware in QEMU): $(tail -n 1 "$out/conformance-broyden.txt")"
+conformance_check() {
+    local status=0
+    TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 100 > "$out/conformance.txt" || status=1
+    echo "pil conformance (firmware in QEMU): $(tail -n 1 "$out/conformance.txt")"
+    # the Broyden servo baseline on the same firmware image (SessionConfig law 1)
+    TRN_QEMU_ARM="$QEMU_ARM" ./target/release/trn conformance --bus slcan:qemu --seed 101 --controller broyden > "$out/conformance-broyden.txt" || status=1
+    echo "pil conformance, Broyden servo (firmware in QEMU): $(tail -n 1 "$out/conformance-broyden.txt")"
+    grep -A 1 "^  FAIL  " "$out/conformance-broyden.txt" || true
+    grep -A 1 "^  FAIL  " "$out/conformance.txt" || true
+    return $status
+}
 # the learned tables through the firmware's store (protocol/SPEC.md 3.4, 3.5): a checkpoint
 # of a short host training written into the firmware over the link (staged in its emulated
 # flash, checked there, applied from there) and read back out: bit-identical; then the
@@ -87,14 +106,12 @@ if bad or not a.get("final_error_px"):
 PY
     echo "pil tables: $(wc -c < "$out/tables.ckpt") bytes written into the firmware's flash store and read back bit-identical (${rt_s} s); evaluated on the firmware as on the host build, bit-identical"
 }
-tables_check || { echo "pil tables: FAIL" >&2; status=1; }
 # the compact build keeps compact images (checkpoint format 3, as the STM32G474 board): the
 # same f32 checkpoint written in is refused as too large for its slots, written again
 # compact (trn says so), applied, and read back out as f32: each value the original rounded
 # to its table's step (weights 2^-5, pressures 2^-13, Jacobians 2^-18)
 compact_tables_check() {
-    local elf start=$SECONDS
-    elf=$(build_firmware pil-compact thumbv7em-none-eabihf pil,compact --no-default-features)
+    local elf=$compact_elf start=$SECONDS
     TRN_QEMU_ARM="$QEMU_ARM" TRN_FIRMWARE="$elf" ./target/release/trn eval --bus slcan:qemu --eval-targets 0 --grasps 0 \
         --checkpoint-in "$out/tables.ckpt" --checkpoint-out "$out/tables-compact-back.ckpt" > "$out/tables-compact.txt" 2>&1 || return 1
     grep -q "compact tables only" "$out/tables-compact.txt" || { echo "pil compact tables: FAIL: no notice of the compact write"; return 1; }
@@ -116,14 +133,12 @@ if bad or len(b) != len(a):
 PY
     echo "pil compact tables: the $(wc -c < "$out/tables.ckpt")-byte checkpoint written into the compact firmware's store as a compact image and read back: every value the original rounded to its step ($((SECONDS - start)) s)"
 }
-compact_tables_check || { echo "pil compact tables: FAIL" >&2; status=1; }
 # the watchdog (the QEMU machine's CMSDK watchdog, fed once a turn by the node's loop in
 # every run above; each run's firmware printed its reset cause at boot and announced it on
 # the bus): an image that stops feeding it after a power-on is reset by it, and the next boot
 # reads the cause the watchdog's NMI recorded
 watchdog_check() {
-    local elf start=$SECONDS
-    elf=$(build_firmware pil-watchdog-test thumbv7em-none-eabihf pil,watchdog-test)
+    local elf=$watchdog_elf start=$SECONDS
     timeout 300 "$QEMU_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
         -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" > "$out/watchdog.txt" 2>&1 || true
     grep -q "reset cause 1 " "$out/watchdog.txt" && grep -q "reset cause 3 " "$out/watchdog.txt" &&
@@ -131,7 +146,32 @@ watchdog_check() {
     grep -q "reset cause 1 " "$out/seed1-project-firmware.txt" || { echo "pil watchdog: FAIL: the PIL run printed no reset cause"; return 1; }
     echo "pil watchdog: a firmware that stopped feeding it was reset by the watchdog and read the cause its NMI recorded: 3 (watchdog) ($((SECONDS - start)) s)"
 }
-watchdog_check || { echo "pil watchdog: FAIL" >&2; status=1; }
-grep FAIL -A 1 "$out/conformance-broyden.txt" || true
-grep FAIL -A 1 "$out/conformance.txt" || true
+# Two lanes at once, each one QEMU with the host's side beside it: the curves and the
+# watchdog (which reads the first case's output), and the conformance suites and the tables
+# (the compact build reads the tables' checkpoint). Nothing is shared between them but the
+# images, and each run waits on its firmware with the QEMU profile's patience (replies within
+# 20 s of the wall clock), far above what a shared core costs; the conformance suites spend
+# most of their time waiting for silences, so the lanes together take about as long as the
+# longer one. Each lane's output is printed whole when both have ended.
+lane_curves() {
+    local status=0
+    curves_check || status=1
+    watchdog_check || { echo "pil watchdog: FAIL" >&2; status=1; }
+    return $status
+}
+lane_protocol() {
+    local status=0
+    conformance_check || status=1
+    tables_check || { echo "pil tables: FAIL" >&2; status=1; }
+    compact_tables_check || { echo "pil compact tables: FAIL" >&2; status=1; }
+    return $status
+}
+status=0
+lane_curves > "$out/lane-curves.txt" 2>&1 &
+curves=$!
+lane_protocol > "$out/lane-protocol.txt" 2>&1 &
+protocol=$!
+wait "$curves" || status=1
+wait "$protocol" || status=1
+cat "$out/lane-curves.txt" "$out/lane-protocol.txt"
 exit $status
