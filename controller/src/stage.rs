@@ -60,6 +60,12 @@ pub struct Stage<const N: usize, const D: usize, const M: usize, const K: usize>
     /// first, then corrected by the secant of each move (valid from the trial's second fine
     /// move on; kept outside [`Trial`] so that starting a trial does not write it).
     a_bar: [[f32; D]; M],
+    /// Experiment (StageConfig::forward): each neuron's forward Jacobian (D rows of M), and
+    /// the trial's rank-averaged one.
+    #[cfg(any(test, feature = "std"))]
+    fwd: std::vec::Vec<[[f32; M]; D]>,
+    #[cfg(any(test, feature = "std"))]
+    j_bar: [[f32; M]; D],
 }
 
 impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D, M, K> {
@@ -89,6 +95,10 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                 outcome: ZERO_OUTCOME,
             },
             a_bar: [[0.0; D]; M],
+            #[cfg(any(test, feature = "std"))]
+            fwd: std::vec::Vec::new(),
+            #[cfg(any(test, feature = "std"))]
+            j_bar: [[0.0; M]; D],
         }
     }
 
@@ -408,6 +418,30 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     if updated.is_err() {
                         tr.outcome.skipped_updates = tr.outcome.skipped_updates.saturating_add(1);
                     }
+                    #[cfg(any(test, feature = "std"))]
+                    if self.cfg.forward > 0.0 && tr.p_target.is_none() {
+                        // experiment: the forward rule on the same secant
+                        if self.fwd.len() != N {
+                            self.fwd = std::vec![[[0.0; M]; D]; N];
+                        }
+                        let n2: f32 = dp.iter().map(|x| x * x).sum();
+                        let c = coeff * self.cfg.forward / (n2 + 1e-6);
+                        for (&k, &f) in self
+                            .ranking
+                            .indices()
+                            .iter()
+                            .zip(self.neighbour.value.iter())
+                        {
+                            let j = &mut self.fwd[k as usize];
+                            for d in 0..D {
+                                let pred: f32 = (0..M).map(|m| j[d][m] * dp[m]).sum();
+                                let r = c * f * (dv[d] - pred);
+                                for m in 0..M {
+                                    j[d][m] += r * dp[m];
+                                }
+                            }
+                        }
+                    }
                 }
                 if let Some(over) = finish {
                     return Ok(self.finish(d, over));
@@ -453,6 +487,55 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
         };
         let limit = self.cfg.pressure_limit;
         let mut p_fine = rules::fine_output(&tr.p_last, &a_bar, &target, v, f32::INFINITY);
+        #[cfg(any(test, feature = "std"))]
+        if self.cfg.forward > 0.0 && !tr.learn && self.fwd.len() == N {
+            // experiment (StageConfig::forward): the step from the forward Jacobians
+            if tr.outcome.fine_moves == 0 {
+                let n = (self.cfg.fine_ranks as usize + 1).min(K);
+                let mut jb = [[0.0f32; M]; D];
+                let mut wsum = 0.0f32;
+                for (&k, &al) in self.ranking.indices()[..n]
+                    .iter()
+                    .zip(self.alpha.value[..n].iter())
+                {
+                    let j = &self.fwd[k as usize];
+                    for d in 0..D {
+                        for m in 0..M {
+                            jb[d][m] += al * j[d][m];
+                        }
+                    }
+                    wsum += al;
+                }
+                jb.iter_mut().flatten().for_each(|x| *x /= wsum);
+                self.j_bar = jb;
+            } else if self.cfg.trial_secant > 0.0 {
+                let (dp, dv) = (sub(&tr.p_last, &tr.p_prev), sub(v, &tr.v_prev));
+                let n2: f32 = dp.iter().map(|x| x * x).sum();
+                if n2 > 1e-8 {
+                    let g = self.cfg.trial_secant / n2;
+                    for d in 0..D {
+                        let pred: f32 = (0..M).map(|m| self.j_bar[d][m] * dp[m]).sum();
+                        let r = g * (dv[d] - pred);
+                        for m in 0..M {
+                            self.j_bar[d][m] += r * dp[m];
+                        }
+                    }
+                }
+            }
+            let j = nalgebra::SMatrix::<f32, D, M>::from_fn(|d, m| self.j_bar[d][m]);
+            let e = nalgebra::SVector::<f32, D>::from_fn(|d, _| target[d] - v[d]);
+            let mut jtj = j.transpose() * j;
+            let ridge = self.cfg.forward_ridge * jtj.trace() / M as f32;
+            for m in 0..M {
+                jtj[(m, m)] += ridge;
+            }
+            if let Some(ch) = jtj.cholesky() {
+                let dp = ch.solve(&(j.transpose() * e));
+                for m in 0..M {
+                    p_fine[m] = tr.p_last[m] + dp[m];
+                }
+            }
+        }
         let w = self.cfg.map_step;
         if w > 0.0 && !tr.learn && tr.outcome.fine_moves == 0 {
             // the map's step (StageConfig::map_step): the coarse map's output at the target

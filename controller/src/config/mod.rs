@@ -205,6 +205,14 @@ pub struct StageConfig {
     /// Experiment (branch exp-probe): a mature trial's fine steps (8.14) lengthened by this
     /// factor (`1` = the paper's step; `0` is read as 1).
     pub fine_gain: f32,
+    /// Experiment (branch exp-forward, host builds only): forward Jacobians `dv/dp` learned
+    /// beside the inverse ones from the same secants, at this multiple of the Jacobian rule's
+    /// rate, `J_k += c (dv - J_k dp) dp^T / (||dp||^2 + 1e-6)`, regressed on the commanded
+    /// `dp` (no camera noise) instead of the measured `dv`; a mature trial's fine moves then
+    /// solve `(J^T J + ridge I) dp = J^T e` with their rank-averaged `J`; `0` = off (8.14).
+    pub forward: f32,
+    /// Experiment: the ridge of the forward step, as a fraction of `trace(J^T J) / M`.
+    pub forward_ridge: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -426,6 +434,8 @@ impl Config {
             step_noise: 0.0,
             probe: 0.0,
             fine_gain: 0.0,
+            forward: 0.0,
+            forward_ridge: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -548,6 +558,8 @@ const ZERO_STAGE: StageConfig = StageConfig {
     step_noise: 0.0,
     probe: 0.0,
     fine_gain: 0.0,
+    forward: 0.0,
+    forward_ridge: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
