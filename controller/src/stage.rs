@@ -478,6 +478,52 @@ impl<const N: usize, const D: usize, const M: usize, const K: usize> Stage<N, D,
                     &self.alpha,
                     self.cfg.fine_ranks as usize,
                 );
+                #[allow(unused_mut)]
+                let mut a = a;
+                #[cfg(any(test, feature = "std"))]
+                if self.cfg.jac_field > 0.0 && !tr.learn {
+                    // experiment (StageConfig::jac_field): the average moved to the target
+                    let n = (self.cfg.fine_ranks as usize + 1).min(K);
+                    let ks = &self.ranking.indices()[..n];
+                    let als = &self.alpha.value[..n];
+                    let wsum: f32 = als.iter().sum();
+                    let mut wbar = [0.0f32; D];
+                    for (&k, &al) in ks.iter().zip(als) {
+                        let w = self.net.weight(k as usize);
+                        for d in 0..D {
+                            wbar[d] += al * w[d] / wsum;
+                        }
+                    }
+                    let mut xtx = nalgebra::SMatrix::<f32, D, D>::zeros();
+                    let mut rhs = std::vec![nalgebra::SVector::<f32, D>::zeros(); M * D];
+                    for (&k, &al) in ks.iter().zip(als) {
+                        let w = self.net.weight(k as usize);
+                        let x = nalgebra::SVector::<f32, D>::from_fn(|d, _| w[d] - wbar[d]);
+                        xtx += x * x.transpose() * al;
+                        let ak = self.net.jacobian(k as usize);
+                        for m in 0..M {
+                            for d in 0..D {
+                                rhs[m * D + d] += x * (al * (ak[m][d] - a[m][d]));
+                            }
+                        }
+                    }
+                    let ridge = self.cfg.jac_field * xtx.trace() / D as f32;
+                    for d in 0..D {
+                        xtx[(d, d)] += ridge;
+                    }
+                    if let Some(ch) = xtx.cholesky() {
+                        // the secant from the reading to the target: the field at their midpoint
+                        let dx = nalgebra::SVector::<f32, D>::from_fn(|d, _| {
+                            0.5 * (target[d] + v[d]) - wbar[d]
+                        });
+                        for m in 0..M {
+                            for d in 0..D {
+                                let g = ch.solve(&rhs[m * D + d]);
+                                a[m][d] += g.dot(&dx);
+                            }
+                        }
+                    }
+                }
                 if !tr.learn {
                     // held for the trial's later fine moves
                     self.a_bar = a;

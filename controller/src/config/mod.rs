@@ -213,6 +213,12 @@ pub struct StageConfig {
     pub forward: f32,
     /// Experiment: the ridge of the forward step, as a fraction of `trace(J^T J) / M`.
     pub forward_ridge: f32,
+    /// Experiment (branch exp-jacobian-field): a mature trial's averaged Jacobian (8.14) taken
+    /// between the reading and the target instead of at its ranks' weighted centroid:
+    /// `A(u) = A_bar + G (u - w_bar)` at their midpoint `u`,
+    /// `G` the ridge regression of the ranks' Jacobians on their centres (weights as in the
+    /// average, ridge this fraction of the centres' weighted spread); `0` = off.
+    pub jac_field: f32,
     /// Commands are clamped to `[-pressure_limit, pressure_limit]`.
     pub pressure_limit: f32,
     /// Observations and targets outside `[input_min, input_max]` pixels are rejected.
@@ -436,6 +442,7 @@ impl Config {
             fine_gain: 0.0,
             forward: 0.0,
             forward_ridge: 0.0,
+            jac_field: 0.0,
             pressure_limit: 1.0,
             input_min: -1000.0,
             input_max: 5000.0,
@@ -560,6 +567,7 @@ const ZERO_STAGE: StageConfig = StageConfig {
     fine_gain: 0.0,
     forward: 0.0,
     forward_ridge: 0.0,
+    jac_field: 0.0,
     pressure_limit: 0.0,
     input_min: 0.0,
     input_max: 0.0,
