@@ -18,12 +18,8 @@
 #   bash scripts/precision_experiments.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-root=$PWD
+source scripts/experiment_worktree.sh
 rev=6f1c3c3bf45cb0c1b870e433f96e4007a48a25e7  # the commit tagged exp-approach-smooth
-tmp=$(mktemp -d)
-cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
-trap cleanup EXIT
-git worktree add --detach "$tmp/src" "$rev" >/dev/null
 rows=project,trials-1000-combined,loop-25
 rows+=,rev-0.3,rev-0.6,rev-m0.3,rev-m0.5,loop-25-rev-1,loop-25-rev-3,c1000-rev-m0.3,c1000-rev-m0.5
 rows+=,est-0.42-0.15,est-0.42-0.3,est-0.42-0.5,est-f0.3-b1,est-f0.3-b2,est-f0.3-b3,est-f0.5-b1
@@ -50,20 +46,17 @@ rows+=,loop-25-approach-1.0-settle-2.5-c1000
 # read the drives' pressures through the harness's side channel: one run at a time
 drives=drives-side-0.02,drives-side-0.05,drives-side-learn-1,loop-25-drives-side-0.1
 drives+=,loop-25-drives-side-learn-1
-(
-    cd "$tmp/src"
-    CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
-    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/runs" \
-        --quiet --configs "$rows" "$@" > "$tmp/table.md"
-    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/drives" \
-        --quiet --configs "$drives" --jobs 1 | tail -n +3 >> "$tmp/table.md"
-    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/heldout" \
-        --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2,c1000-replay-1,c1000-stop-pca8-tol-0.9 \
-        --first-seed 100 --seeds 10 "$@" > "$tmp/heldout.md"
-    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/loop25" \
-        --quiet --configs loop-25,loop-25-approach-1.0,loop-25-approach-1.0-settle-2.5,loop-25-approach-1.0-settle-2.5-c1000 \
-        --first-seed 100 --seeds 10 --grasps 50 "$@" > "$tmp/loop25.md"
-)
+experiment_worktree "$rev"
+"$trn" study studies/precision.toml --runs "$tmp/runs" \
+    --quiet --configs "$rows" "$@" > "$tmp/table.md"
+"$trn" study studies/precision.toml --runs "$tmp/drives" \
+    --quiet --configs "$drives" --jobs 1 | tail -n +3 >> "$tmp/table.md"
+"$trn" study studies/precision.toml --runs "$tmp/heldout" \
+    --quiet --configs trials-1000-combined,c1000-rev-m0.3,c1000-est-f0.3-b2,c1000-replay-1,c1000-stop-pca8-tol-0.9 \
+    --first-seed 100 --seeds 10 "$@" > "$tmp/heldout.md"
+"$trn" study studies/precision.toml --runs "$tmp/loop25" \
+    --quiet --configs loop-25,loop-25-approach-1.0,loop-25-approach-1.0-settle-2.5,loop-25-approach-1.0-settle-2.5-c1000 \
+    --first-seed 100 --seeds 10 --grasps 50 "$@" > "$tmp/loop25.md"
 mv "$tmp/table.md" "$root/docs/results/precision-experiments.md"
 mv "$tmp/heldout.md" "$root/docs/results/precision-experiments-heldout.md"
 mv "$tmp/loop25.md" "$root/docs/results/precision-experiments-loop25.md"

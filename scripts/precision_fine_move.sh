@@ -19,20 +19,12 @@
 #   bash scripts/precision_fine_move.sh [--jobs N]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-root=$PWD
+source scripts/experiment_worktree.sh
 rev=384a8bc47339b1343935b0ea341a4fd3c595d33f  # the commit tagged exp-jacobian-field
-tmp=$(mktemp -d)
-cleanup() { git -C "$root" worktree remove --force "$tmp/src" >/dev/null 2>&1 || true; rm -rf "$tmp"; }
-trap cleanup EXIT
-git worktree add --detach "$tmp/src" "$rev" >/dev/null
 rows=project,probe-0.25,probe-0.5,probe-1,fine-gain-0.9,fine-gain-1.1,fine-gain-1.2
 rows+=,forward-r0.001,forward-r0.01,forward-r0.1,forward-0.3-r0.01,forward-0.1-r0.01
 rows+=,jac-field-0.1,jac-field-0.3,jac-field-1,jac-field-0.3-noise-0.5,jac-field-0.3-map-0.7-noise-0.5
 rows+=,trials-1000-combined,c1000-jac-field-0.3,c1000-jac-field-0.3-r23
-(
-    cd "$tmp/src"
-    CARGO_TARGET_DIR="$root/target/experiments" cargo build --release --quiet -p trn-sim --bins
-    "$root/target/experiments/release/trn" study studies/precision.toml --runs "$tmp/runs" \
-        --quiet --configs "$rows" "$@" > "$tmp/table.md"
-)
+experiment_worktree "$rev"
+"$trn" study studies/precision.toml --runs "$tmp/runs" --quiet --configs "$rows" "$@" > "$tmp/table.md"
 mv "$tmp/table.md" "$root/docs/results/precision-fine-move.md"

@@ -1,21 +1,11 @@
 use super::*;
 
-/// A folder of its own under the system's temporary directory, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let d = std::env::temp_dir().join(format!("trn-camera-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        TempDir(d)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+/// A folder of the test's own, named after it, removed when the test ends, passed or failed.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("trn-camera-{name}-"))
+        .tempdir()
+        .expect("a temporary folder")
 }
 
 fn recorded() -> PathBuf {
@@ -23,12 +13,12 @@ fn recorded() -> PathBuf {
 }
 
 /// A folder with a 32 x 24 8-bit frame `a.png` and the manifest `text`.
-fn folder(name: &str, text: &str) -> TempDir {
-    let d = TempDir::new(name);
+fn folder(name: &str, text: &str) -> tempfile::TempDir {
+    let d = scratch(name);
     image::GrayImage::new(32, 24)
-        .save(d.0.join("a.png"))
+        .save(d.path().join("a.png"))
         .unwrap();
-    std::fs::write(d.0.join(MANIFEST), text).unwrap();
+    std::fs::write(d.path().join(MANIFEST), text).unwrap();
     d
 }
 
@@ -74,7 +64,7 @@ fn a_recording_is_served_in_order_each_capture_for_its_kind() {
 /// Fails if a manifest that is not one is taken, or refused without saying what is wrong.
 #[test]
 fn manifests_that_are_not_one_are_refused_saying_why() {
-    assert!(Recording::open(&folder("good", ONE).0).is_ok());
+    assert!(Recording::open(folder("good", ONE).path()).is_ok());
     let cases: &[(&str, &str, &str)] = &[
         ("format", "trn-camera-recording/1\"", "format"),
         ("gate", "gate_px = 3.0", "gate_px"),
@@ -99,7 +89,7 @@ fn manifests_that_are_not_one_are_refused_saying_why() {
     ];
     for ((name, from, says), to) in cases.iter().zip(replaced) {
         let d = folder(name, &ONE.replace(from, to));
-        let e = Recording::open(&d.0).unwrap_err().to_string();
+        let e = Recording::open(d.path()).unwrap_err().to_string();
         assert!(e.contains(says) && e.contains(MANIFEST), "{name}: {e}");
     }
     let d = folder("calibration", ONE);
@@ -108,8 +98,8 @@ fn manifests_that_are_not_one_are_refused_saying_why() {
         "[[captures]]",
         &format!("[calibration]\npixel_noise_px = 0.3\n{camera}[[captures]]"),
     );
-    std::fs::write(d.0.join(MANIFEST), text).unwrap();
-    let e = Recording::open(&d.0).unwrap_err().to_string();
+    std::fs::write(d.path().join(MANIFEST), text).unwrap();
+    let e = Recording::open(d.path()).unwrap_err().to_string();
     assert!(e.contains("1 cameras, not 2"), "{e}");
 }
 
@@ -118,7 +108,7 @@ fn manifests_that_are_not_one_are_refused_saying_why() {
 #[test]
 fn frames_that_are_not_grayscale_or_not_their_cameras_size_are_refused() {
     let d = folder("frames", ONE);
-    let f = d.0.join("a.png");
+    let f = d.path().join("a.png");
     image::RgbImage::new(32, 24).save(&f).unwrap();
     let e = read_frame(&f).unwrap_err().to_string();
     assert!(e.contains("not 8- or 16-bit grayscale"), "{e}");
@@ -131,14 +121,16 @@ fn frames_that_are_not_grayscale_or_not_their_cameras_size_are_refused() {
     assert!(matches!(read_frame(&f).unwrap(), AnyFrame::U16(_)));
     // the recording's calibration says 512 x 384: a frame of 32 x 24 in its place is refused
     let r = Recording::open(&recorded()).unwrap();
-    let d = TempDir::new("size");
+    let d = scratch("size");
     for e in std::fs::read_dir(recorded()).unwrap() {
         let e = e.unwrap();
-        std::fs::copy(e.path(), d.0.join(e.file_name())).unwrap();
+        std::fs::copy(e.path(), d.path().join(e.file_name())).unwrap();
     }
     let name = &r.manifest().captures[0].cam1[1];
-    image::GrayImage::new(32, 24).save(d.0.join(name)).unwrap();
-    let e = Recording::open(&d.0)
+    image::GrayImage::new(32, 24)
+        .save(d.path().join(name))
+        .unwrap();
+    let e = Recording::open(d.path())
         .unwrap()
         .frames(0)
         .unwrap_err()
